@@ -1,0 +1,103 @@
+"""Bernstein/Bezier maths for numpy arrays and CasADi symbols.
+
+Conventions: a curve with ``N`` control points has degree ``n = N - 1``; control
+points are the columns of a ``(dim, N)`` array; normalised time ``s`` lies in
+``[0, 1]`` and a horizon of ``T`` seconds gives ``d/dt = (1/T) d/ds``.
+"""
+
+from __future__ import annotations
+
+from math import comb
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+__all__ = [
+    "bernstein_basis",
+    "difference_matrix",
+    "derivative_matrix",
+    "evaluate",
+    "shift_matrix",
+    "convex_hull_box",
+]
+
+_CASADI = (ca.SX, ca.MX, ca.DM)
+
+
+def bernstein_basis(n_ctrl: int, s: Any) -> Any:
+    """Basis matrix ``B[k, j] = C(n, j) s_k^j (1 - s_k)^(n - j)``, shape ``(K, n_ctrl)``.
+
+    Numeric ``s`` (float, list, ndarray, DM) gives numpy; an SX/MX ``s`` gives the same type.
+    """
+    if n_ctrl < 1:
+        raise ValueError(f"n_ctrl must be >= 1, got {n_ctrl}")
+    n = n_ctrl - 1
+    symbolic = isinstance(s, (ca.SX, ca.MX))
+    if symbolic:
+        s = ca.vec(s)
+        one = type(s).ones(s.size1(), 1)
+    else:
+        s = np.asarray(s, dtype=float).reshape(-1, 1)
+        one = np.ones_like(s)
+    # Powers by repeated multiplication: exact at s = 0 and s = 1, no 0**0 issues.
+    pw, pw1 = [one], [one]
+    for _ in range(n):
+        pw.append(pw[-1] * s)
+        pw1.append(pw1[-1] * (1 - s))
+    cols = [comb(n, j) * pw[j] * pw1[n - j] for j in range(n_ctrl)]
+    return ca.horzcat(*cols) if symbolic else np.hstack(cols)
+
+
+def difference_matrix(n_ctrl: int, order: int = 1, horizon: float = 1.0) -> np.ndarray:
+    """Matrix ``D`` with hodograph control points ``X @ D.T`` of the ``order``-th time derivative.
+
+    Shape ``(n_ctrl - order, n_ctrl)``; ``(0, n_ctrl)`` when ``order >= n_ctrl``.
+    """
+    if n_ctrl < 1 or order < 0:
+        raise ValueError(f"need n_ctrl >= 1 and order >= 0, got {n_ctrl}, {order}")
+    if order >= n_ctrl:
+        return np.zeros((0, n_ctrl))
+    D = np.eye(n_ctrl)
+    for k in range(order):
+        m = n_ctrl - k  # control points of the current hodograph
+        D = (m - 1) / horizon * (np.eye(m - 1, m, 1) - np.eye(m - 1, m)) @ D
+    return D
+
+
+def derivative_matrix(n_ctrl: int, s: Any, order: int = 0, horizon: float = 1.0) -> np.ndarray:
+    """Map control points to the ``order``-th time derivative at knots ``s``: shape ``(K, n_ctrl)``."""
+    s = np.asarray(s, dtype=float).ravel()
+    D = difference_matrix(n_ctrl, order, horizon)
+    if D.shape[0] == 0:
+        return np.zeros((s.size, n_ctrl))
+    return bernstein_basis(n_ctrl - order, s) @ D
+
+
+def evaluate(ctrl: Any, s: Any, order: int = 0, horizon: float = 1.0) -> Any:
+    """Curve (or its ``order``-th time derivative) at knots ``s``: shape ``(dim, K)``.
+
+    ``ctrl`` may be numpy or CasADi SX/MX/DM (result has the matching type); ``s`` is numeric.
+    """
+    if isinstance(ctrl, _CASADI):
+        return ca.mtimes(ctrl, ca.DM(derivative_matrix(ctrl.shape[1], s, order, horizon).T))
+    ctrl = np.atleast_2d(np.asarray(ctrl, dtype=float))
+    return ctrl @ derivative_matrix(ctrl.shape[1], s, order, horizon).T
+
+
+def shift_matrix(n_ctrl: int, tau: float) -> np.ndarray:
+    """``S`` such that ``ctrl @ S`` is the curve restricted to ``[tau, 1]``, reparameterised to ``[0, 1]``.
+
+    Right half of de Casteljau subdivision: ``S[k, j] = b_{k-j, n-j}(tau)`` for ``k >= j``.
+    The last column is ``e_n``, so the end point is kept.
+    """
+    S = np.zeros((n_ctrl, n_ctrl))
+    for j in range(n_ctrl):
+        S[j:, j] = bernstein_basis(n_ctrl - j, float(tau))[0]
+    return S
+
+
+def convex_hull_box(ctrl: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Elementwise ``(min, max)`` over control points (columns); bounds the whole curve."""
+    X = np.atleast_2d(np.asarray(ctrl, dtype=float))
+    return X.min(axis=1), X.max(axis=1)

@@ -1,0 +1,127 @@
+"""`harmony run`: one scenario, closed loop, into a self-describing run directory."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import subprocess
+import time
+import traceback
+from datetime import datetime
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import yaml
+from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+from harmony_cli.loop import run_loop
+from harmony_cli.metrics import summarise
+from harmony_cli.reference import HandReference
+from harmony_cli.robot import load_robot
+from harmony_cli.scenario import load_scenario, scenario_yaml
+from harmony_cli.sim import Simulation
+from harmony_cli.wholebody import WholeBodyMPC
+
+PACKAGES = ("harmony-cli", "casadi", "pyoptas", "pin", "pybullet", "numpy", "pydantic", "pandas")
+
+
+def _git_sha() -> str:
+    here = Path(__file__).resolve().parent
+    try:
+        sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
+                               capture_output=True, text=True).stdout.strip()
+        return (sha + ("-dirty" if dirty else "")) or "unknown"
+    except OSError:
+        return "unknown"
+
+
+def _cpu() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def machine_meta(concurrency: int) -> dict:
+    versions = {}
+    for pkg in PACKAGES:
+        try:
+            versions[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            versions[pkg] = "absent"
+    return {"python": platform.python_version(), "packages": versions, "git_sha": _git_sha(), "cpu": _cpu(),
+            "cores": os.cpu_count(), "host": platform.node(), "concurrency": concurrency,
+            "started": datetime.now().isoformat(timespec="seconds")}
+
+
+def default_run_dir(name: str, root: Path = Path("results/runs")) -> Path:
+    return root / f"{name}-{datetime.now().strftime('%Y%m%d-%H%M%S-%f')}"
+
+
+def run_scenario(path: str | Path, overrides: list[str] = (), out: Path | None = None, progress: bool = True,
+                 concurrency: int = 1) -> Path:
+    """Run one scenario closed loop; always leaves steps.csv, summary.json (status) and run.log in `out`."""
+    path = Path(path)
+    scenario = load_scenario(path, overrides)
+    out = Path(out) if out else default_run_dir(scenario.name)
+    out.mkdir(parents=True, exist_ok=True)
+    resolved = yaml.safe_load(scenario_yaml(scenario))
+    resolved["robot"]["urdf"] = str((path.parent / scenario.robot.urdf).resolve())  # re-runnable from out/
+    (out / "scenario.resolved.yaml").write_text(yaml.safe_dump(resolved, sort_keys=False))
+    (out / "overrides.yaml").write_text(yaml.safe_dump({"scenario": str(path), "overrides": list(overrides)}))
+    meta = machine_meta(concurrency) | {"seed": scenario.seed}
+    log = (out / "run.log").open("w")
+    rows: list[dict] = []
+    summary: dict = {"name": scenario.name, "status": "running"}
+    np.random.seed(scenario.seed)  # nothing in the loop is random today; the seed is recorded and fixed
+    try:
+        robot = load_robot(scenario.robot, path.parent)
+        mpc = WholeBodyMPC(robot, scenario, scenario.sim.control_dt)
+        sim = Simulation(robot, scenario.sim)
+        reference = HandReference(scenario.reference, robot.hand_poses_numeric(robot.home))
+        summary |= {"transcription": scenario.mpc.transcription, "knots": scenario.mpc.knots,
+                    "control_points": scenario.mpc.control_points if scenario.mpc.transcription == "bezier" else None,
+                    "horizon_s": scenario.mpc.horizon, "solver": scenario.solver.name,
+                    "decision_variables": mpc.problem.n_vars, "decision_label": mpc.transcription.decision_label,
+                    "n_dof": robot.n_dof, "build_time_s": mpc.build_time}
+        log.write(f"built whole-body MPC: {mpc.problem.n_vars} decision variables in {mpc.build_time:.2f} s\n")
+
+        def record(row: dict) -> None:
+            rows.append(row)
+            if not row["success"]:
+                log.write(f"t={row['t']:.2f}s: solve failed ({row['status']}); held the last good plan\n")
+                log.flush()
+
+        with Progress(TextColumn(f"[bold]{scenario.name}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                      TimeRemainingColumn(), disable=not progress, transient=False) as bar:
+            task = bar.add_task("run", total=int(round(scenario.sim.duration / scenario.sim.control_dt)))
+            start = time.perf_counter()
+            run_loop(mpc, sim, reference, scenario.sim.duration, scenario.sim.control_dt, scenario.sim.substeps,
+                     record, lambda done, total: bar.update(task, completed=done))
+        summary["wall_time_s"] = time.perf_counter() - start
+        sim.close()
+        summary["status"] = "completed"
+    except BaseException as exc:  # noqa: BLE001 - record why, then re-raise
+        summary |= {"status": "failed", "error": f"{type(exc).__name__}: {exc}"}
+        log.write(traceback.format_exc())
+        raise
+    finally:
+        steps = pd.DataFrame(rows)
+        steps.to_csv(out / "steps.csv", index=False)
+        if len(steps):
+            summary |= summarise(steps, list(robot.hand_names))
+        (out / "meta.json").write_text(json.dumps(meta, indent=2))
+        (out / "summary.json").write_text(json.dumps(summary, indent=2))
+        log.write(f"status: {summary['status']}\n")
+        log.close()
+        if len(steps):
+            from harmony_cli.plots import plot_run
+            plot_run(out, steps, list(robot.hand_names))
+    return out

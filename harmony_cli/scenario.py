@@ -1,0 +1,226 @@
+"""Scenario files: pydantic models (unknown keys rejected), `--set` overrides and one-line errors."""
+
+from __future__ import annotations
+
+import copy
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Annotated, Any, Literal, Union
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, ValidationError, model_validator
+
+EVA_HOME_DEG = {"LARM_JOINT2": -30.0, "LARM_JOINT4": 30.0, "LARM_JOINT5": 90.0,
+                "RARM_JOINT2": -30.0, "RARM_JOINT4": 30.0, "RARM_JOINT5": -90.0}
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be used; the message is one line naming file, field, value and choices."""
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class RobotSpec(Strict):
+    urdf: str = Field("../robots/eva.urdf", description="URDF path, relative to the scenario file")
+    end_effectors: dict[str, str] = Field(
+        default_factory=lambda: {"left": "LARM_grasp", "right": "RARM_grasp"},
+        description="hand label -> end-effector link (the frame every MPC controls)")
+    base_joints: list[str] = Field(["base_x", "base_y", "base_yaw"],
+                                   description="virtual planar base joints, commanded by velocity")
+    pinned_joints: list[str] = Field(["HEAD_JOINT0", "HEAD_JOINT1"], description="held at home in every MPC")
+    chest_joints: list[str] = Field(["CHEST_JOINT0"], description="torso joints (regularised towards 0)")
+    mirrored_joints: list[tuple[str, str]] = Field([("LARM_JOINT0", "RARM_JOINT0")],
+                                                   description="pairs regularised to (a + b)^2 -> 0")
+    home_deg: dict[str, float] = Field(default_factory=lambda: dict(EVA_HOME_DEG),
+                                       description="joint -> home angle in degrees (metres for prismatic); others 0")
+
+
+class SCurveReference(Strict):
+    """Both hands sweep along a lane-change 'S' while their yaw follows the path heading."""
+
+    type: Literal["s_curve"]
+    duration: PositiveFloat = Field(24.0, description="time to traverse the S [s] (quintic time scaling)")
+    length: float = Field(5.0, description="forward travel of the hands' midpoint [m]")
+    lateral: float = Field(2.0, description="sideways shift of the midpoint over the S [m]")
+    start: float = Field(0.0, ge=0, description="time at which the sweep begins [s]")
+
+
+class HoldReference(Strict):
+    """The hands hold their home poses (smoke tests)."""
+
+    type: Literal["hold"]
+
+
+Reference = Annotated[Union[SCurveReference, HoldReference], Field(discriminator="type")]
+
+
+class Weights(Strict):
+    position: float = Field(1.0, ge=0, description="hand position tracking, mean over knots [1/m^2]")
+    orientation: float = Field(1.0, ge=0, description="hand rotation-matrix error ||R - R_ref||_F^2, mean over knots")
+    chest_yaw: float = Field(10.0, ge=0)
+    arm_symmetry: float = Field(0.1, ge=0, description="(LARM_JOINT0 + RARM_JOINT0)^2")
+    posture: float = Field(0.001, ge=0, description="arm joints away from home")
+    velocity: float = Field(0.01, ge=0, description="joint velocity at the knots")
+    acceleration: float = Field(0.001, ge=0, description="joint acceleration at the knots")
+
+
+class MpcSpec(Strict):
+    transcription: Literal["bezier", "traditional"] = "bezier"
+    integration: Literal["euler", "trapezoidal"] = Field("euler", description="traditional transcription only")
+    horizon: PositiveFloat = Field(5.0, description="prediction horizon T [s]")
+    knots: int = Field(26, ge=2, description="time knots K where the cost is evaluated (independent of N)")
+    control_points: int = Field(6, ge=2, description="Bezier control points N (bezier only)")
+    weights: Weights = Weights()
+
+
+SOLVER_MODES = ("ipopt", "gauss_newton", "rti", "knitro")
+QP_SOLVERS = ("daqp", "qpoases", "osqp", "proxqp", "hpipm")
+
+
+class SolverSpec(Strict):
+    name: str = Field("ipopt", description="ipopt | gauss_newton | rti | knitro | any CasADi nlpsol plugin")
+    qp: Literal["daqp", "qpoases", "osqp", "proxqp", "hpipm"] = Field(
+        "daqp", description="QP solver of gauss_newton and rti")
+    hessian: Literal["gauss_newton", "exact"] = Field(
+        "gauss_newton", description="NLP plugins: structured Gauss-Newton Hessian or CasADi's exact one")
+    max_iter: int = Field(30, ge=1, description="Gauss-Newton SQP iterations per solve (rti: always 1)")
+    tol: PositiveFloat = Field(1e-6, description="Gauss-Newton SQP step tolerance")
+    options: dict[str, Any] = Field(default_factory=dict, description="passed to the CasADi plugin")
+
+
+class SimSpec(Strict):
+    physics_dt: PositiveFloat = Field(0.004, description="PyBullet step [s]")
+    control_dt: PositiveFloat = Field(0.02, description="MPC period [s]; a whole multiple of physics_dt")
+    duration: PositiveFloat = Field(26.0, description="closed-loop run length [s]")
+    position_gain: float = Field(0.5, gt=0, le=1, description="PyBullet position-control gain of chest/arms/head")
+    velocity_gain: float = Field(1.0, gt=0, description="PyBullet velocity gain of chest/arms/head")
+
+    @model_validator(mode="after")
+    def _control_is_whole_multiple(self):
+        ratio = self.control_dt / self.physics_dt
+        if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            raise ValueError(f"control_dt {self.control_dt} is not a whole multiple of physics_dt {self.physics_dt} "
+                             f"(ratio {ratio:.4g}); e.g. physics_dt {self.control_dt / max(1, round(ratio)):.6g}")
+        return self
+
+    @property
+    def substeps(self) -> int:
+        return round(self.control_dt / self.physics_dt)
+
+
+class Scenario(Strict):
+    name: str
+    description: str = ""
+    seed: int = 0
+    robot: RobotSpec = RobotSpec()
+    reference: Reference
+    mpc: MpcSpec = MpcSpec()
+    solver: SolverSpec = SolverSpec()
+    sim: SimSpec = SimSpec()
+
+
+def apply_overrides(raw: dict, overrides: list[str]) -> dict:
+    """Apply `a.b.c=value` overrides (value parsed as YAML) to a raw scenario mapping."""
+    raw = copy.deepcopy(raw)
+    for item in overrides:
+        key, sep, text = item.partition("=")
+        if not sep or not key:
+            raise ScenarioError(f"--set {item!r}: expected key.path=value, e.g. mpc.knots=26")
+        node = raw
+        *parents, leaf = key.split(".")
+        for part in parents:
+            node = node.setdefault(part, {})
+            if not isinstance(node, dict):
+                raise ScenarioError(f"--set {item!r}: {part!r} is not a section")
+        node[leaf] = yaml.safe_load(text)
+    return raw
+
+
+def _model_at(loc: tuple) -> type[BaseModel] | None:
+    model: Any = Scenario
+    for part in loc:
+        if not (isinstance(model, type) and issubclass(model, BaseModel)) or part not in model.model_fields:
+            return None
+        ann = model.model_fields[part].annotation
+        model = ann if isinstance(ann, type) else None
+    return model
+
+
+def _one_line(path: Path, err: ValidationError) -> str:
+    e = err.errors()[0]
+    loc = tuple(p for p in e["loc"] if not (isinstance(p, str) and p in ("s_curve", "hold")))
+    field = ".".join(str(p) for p in loc) or "(top level)"
+    value = e.get("input")
+    if e["type"] == "extra_forbidden":
+        parent = _model_at(loc[:-1])
+        choices = ", ".join(parent.model_fields) if parent else "see `harmony schema`"
+        return f"{path}: {field}: unknown key (value {value!r}); valid keys: {choices}"
+    if e["type"] == "missing":
+        return f"{path}: {field}: required field is missing"
+    msg = e["msg"].removeprefix("Value error, ")
+    if e["type"] in ("literal_error", "union_tag_invalid"):
+        choices = e.get("ctx", {}).get("expected", "")
+        return f"{path}: {field}: {value!r} is not valid; choose one of: {choices}"
+    return f"{path}: {field}: {value!r}: {msg}"
+
+
+def _urdf_joints_and_links(urdf: Path) -> tuple[set[str], set[str]]:
+    root = ET.parse(urdf).getroot()
+    return {j.get("name") for j in root.iter("joint")}, {l.get("name") for l in root.iter("link")}
+
+
+def _check_robot(path: Path, scenario: Scenario) -> None:
+    urdf = (path.parent / scenario.robot.urdf).resolve()
+    if not urdf.is_file():
+        raise ScenarioError(f"{path}: robot.urdf: {scenario.robot.urdf!r} does not exist (looked at {urdf})")
+    joints, links = _urdf_joints_and_links(urdf)
+    for hand, link in scenario.robot.end_effectors.items():
+        if link not in links:
+            raise ScenarioError(f"{path}: robot.end_effectors.{hand}: {link!r} is not a link of {urdf.name}; "
+                                f"links: {', '.join(sorted(links))}")
+    named = {"base_joints": scenario.robot.base_joints, "pinned_joints": scenario.robot.pinned_joints,
+             "chest_joints": scenario.robot.chest_joints,
+             "mirrored_joints": [j for pair in scenario.robot.mirrored_joints for j in pair],
+             "home_deg": list(scenario.robot.home_deg)}
+    for field, names in named.items():
+        for joint in names:
+            if joint not in joints:
+                raise ScenarioError(f"{path}: robot.{field}: {joint!r} is not a joint of {urdf.name}; "
+                                    f"joints: {', '.join(sorted(joints))}")
+
+
+def _check_solver(path: Path, scenario: Scenario) -> None:
+    from harmony_cli.solvers import available_nlp_plugins  # casadi import kept out of schema-only use
+
+    name = scenario.solver.name
+    plugins = available_nlp_plugins()
+    if name not in SOLVER_MODES and name not in plugins:
+        raise ScenarioError(f"{path}: solver.name: {name!r} is not available; choose one of: "
+                            f"{', '.join(sorted(set(SOLVER_MODES) | set(plugins)))}")
+
+
+def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
+    """Read, override and validate a scenario; raise ScenarioError with a one-line message."""
+    path = Path(path)
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except FileNotFoundError:
+        raise ScenarioError(f"{path}: file not found") from None
+    except yaml.YAMLError as exc:
+        raise ScenarioError(f"{path}: not valid YAML: {str(exc).splitlines()[0]}") from None
+    if not isinstance(raw, dict):
+        raise ScenarioError(f"{path}: expected a mapping at the top level, got {type(raw).__name__}")
+    raw = apply_overrides(raw, list(overrides))
+    try:
+        scenario = Scenario.model_validate(raw)
+    except ValidationError as err:
+        raise ScenarioError(_one_line(path, err)) from None
+    _check_robot(path, scenario)
+    _check_solver(path, scenario)
+    return scenario
+
+
+def scenario_yaml(scenario: Scenario) -> str:
+    return yaml.safe_dump(scenario.model_dump(mode="json"), sort_keys=False)

@@ -1,0 +1,81 @@
+"""PyBullet world (own DIRECT client): the robot from the same URDF, commanded like the real one."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet
+from pybullet_utils.bullet_client import BulletClient
+
+from harmony_cli.robot import Robot
+
+
+@dataclass(frozen=True)
+class Observation:
+    q: np.ndarray  # measured joint positions, robot joint order
+    qd: np.ndarray
+    hand_positions: np.ndarray  # (hands, 3) world positions of the end-effector frames
+    hand_rotations: np.ndarray  # (hands, 3, 3)
+
+
+class Simulation:
+    """Base through its virtual planar joints (velocity), every other joint by position + velocity targets."""
+
+    def __init__(self, robot: Robot, sim_spec):
+        self.robot, self.spec = robot, sim_spec
+        self.client = BulletClient(connection_mode=pybullet.DIRECT)
+        self.client.setGravity(0, 0, -9.81)
+        self.client.setPhysicsEngineParameter(fixedTimeStep=sim_spec.physics_dt, deterministicOverlappingPairs=1)
+        ground = self.client.createCollisionShape(pybullet.GEOM_PLANE)
+        self.client.createMultiBody(0, ground)
+        self.body = self.client.loadURDF(str(robot.urdf), useFixedBase=True,
+                                         flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
+        by_name = {}
+        for i in range(self.client.getNumJoints(self.body)):
+            info = self.client.getJointInfo(self.body, i)
+            by_name[info[1].decode()] = i
+            if info[12].decode() in robot.end_effectors:
+                by_name[info[12].decode()] = i  # link index == index of its parent joint
+        self.joints = [by_name[j] for j in robot.joint_names]
+        self.effort = np.array([self.client.getJointInfo(self.body, j)[10] for j in self.joints])
+        self.hand_links = [by_name[link] for link in robot.end_effectors]
+        self.base = list(robot.base_joints)
+        self.others = [i for i in range(robot.n_dof) if i not in robot.base_joints]
+        for i, j in enumerate(self.joints):
+            self.client.resetJointState(self.body, j, robot.home[i], 0.0)
+        self.time = 0.0
+
+    def observe(self) -> Observation:
+        states = self.client.getJointStates(self.body, self.joints)
+        links = self.client.getLinkStates(self.body, self.hand_links, computeForwardKinematics=True)
+        return Observation(
+            q=np.array([s[0] for s in states]), qd=np.array([s[1] for s in states]),
+            hand_positions=np.array([l[4] for l in links]),
+            hand_rotations=np.array([np.reshape(self.client.getMatrixFromQuaternion(l[5]), (3, 3)) for l in links]))
+
+    def apply(self, q_target: np.ndarray, qd_target: np.ndarray) -> None:
+        base = [self.joints[i] for i in self.base]
+        self.client.setJointMotorControlArray(self.body, base, pybullet.VELOCITY_CONTROL,
+                                              targetVelocities=qd_target[self.base], forces=self.effort[self.base])
+        others = [self.joints[i] for i in self.others]
+        n = len(others)
+        self.client.setJointMotorControlArray(
+            self.body, others, pybullet.POSITION_CONTROL, targetPositions=q_target[self.others],
+            targetVelocities=qd_target[self.others], forces=self.effort[self.others],
+            positionGains=[self.spec.position_gain] * n, velocityGains=[self.spec.velocity_gain] * n)
+
+    def step(self, substeps: int) -> None:
+        for _ in range(substeps):
+            self.client.stepSimulation()
+        self.time += substeps * self.spec.physics_dt
+
+    def render(self, width: int = 640, height: int = 480, target=(1.5, 0.0, 0.8)) -> np.ndarray:
+        """RGB frame from TinyRenderer (headless)."""
+        view = self.client.computeViewMatrixFromYawPitchRoll(target, 4.5, 45, -35, 0, 2)
+        proj = self.client.computeProjectionMatrixFOV(60, width / height, 0.1, 50)
+        _, _, rgb, _, _ = self.client.getCameraImage(width, height, view, proj, renderer=pybullet.ER_TINY_RENDERER)
+        return np.reshape(rgb, (height, width, 4))[..., :3]
+
+    def close(self) -> None:
+        self.client.disconnect()

@@ -1,0 +1,120 @@
+"""Whole-body MPC (MPC-W): track both hands' poses at K knots with all joints, built once, warm-started."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import casadi as cs
+import numpy as np
+import optas
+
+from harmony_cli.robot import Robot
+from harmony_cli.solvers import Problem, SolveResult, linear_rows, make_solver
+from harmony_cli.transcription import make_transcription
+
+
+@dataclass(frozen=True)
+class Command:
+    q: np.ndarray  # position targets at t + control_dt
+    qd: np.ndarray  # velocity targets (base: mean velocity over the control period)
+    held: bool  # True when the solve failed and the last good plan was used
+
+
+def task_residual_function(robot: Robot, weights, n_knots: int) -> cs.Function:
+    """Weighted per-knot hand residual r(q, ref) = [sqrt(w_p/K)(p - p_ref); sqrt(w_o/K) vec(R - R_ref)] per hand.
+
+    ref stacks per hand [p_ref (3); vec(R_ref) (9)]; ||R - R_ref||_F^2 = 2(3 - tr(R_ref^T R)) is sign-safe.
+    """
+    q = cs.SX.sym("q", robot.n_dof)
+    ref = cs.SX.sym("ref", 12 * len(robot.end_effectors))
+    wp, wo = np.sqrt(weights.position / n_knots), np.sqrt(weights.orientation / n_knots)
+    parts = []
+    for h in range(len(robot.end_effectors)):
+        p, R = robot.hand_pose(h, q)
+        parts += [wp * (p - ref[12 * h: 12 * h + 3]), wo * (cs.vec(R) - ref[12 * h + 3: 12 * h + 12])]
+    return cs.Function("task_residual", [q, ref], [cs.vertcat(*parts)])
+
+
+def build_problem(robot: Robot, transcription, weights, chest_joints, mirrored_joints) -> Problem:
+    """The MPC-W problem from one spec for either transcription, modelled with OpTaS's builder."""
+    start = time.perf_counter()
+    K, H = transcription.n_knots, len(robot.end_effectors)
+    builder = optas.OptimizationBuilder(T=1)
+    parts = [builder.add_decision_variables(name, *shape) for name, shape in transcription.variable_shapes.items()]
+    x = cs.vertcat(*[cs.vec(v) for v in parts])
+    ref = builder.add_parameter("hand_ref", 12 * H, K)
+    q, dq, ddq = transcription.knots(x)
+
+    residual = task_residual_function(robot, weights, K).map(K)(q, ref)  # 12H x K
+    for h, hand in enumerate(robot.hand_names):
+        builder.add_cost_term(f"position_{hand}", cs.sumsqr(residual[12 * h: 12 * h + 3, :]))
+        builder.add_cost_term(f"orientation_{hand}", cs.sumsqr(residual[12 * h + 3: 12 * h + 12, :]))
+
+    moving = [i for i in range(robot.n_dof) if i not in robot.pinned_joints]
+    chest = [robot.index(j) for j in chest_joints]
+    arms = [i for i in moving if i not in robot.base_joints and i not in chest]
+    home = robot.home[arms][:, None]
+    linear = {
+        "chest_yaw": np.sqrt(weights.chest_yaw / K) * q[chest, :],
+        "arm_symmetry": np.sqrt(weights.arm_symmetry / K) * cs.vertcat(
+            *[q[robot.index(a), :] + q[robot.index(b), :] for a, b in mirrored_joints]),
+        "posture": np.sqrt(weights.posture / K) * (q[arms, :] - home),
+        "velocity": np.sqrt(weights.velocity / K) * dq[moving, :],
+        "acceleration": np.sqrt(weights.acceleration / ddq.shape[1]) * ddq[moving, :],
+    }
+    for name, r in linear.items():
+        builder.add_cost_term(name, cs.sumsqr(r))
+    optimization = builder.build()
+
+    r_lin = cs.vertcat(*[cs.vec(r) for r in linear.values()])
+    L, c = (np.array(v) for v in cs.Function("lin", [x], [cs.jacobian(r_lin, x), r_lin])(np.zeros(x.numel())))
+    A, lb, ub, names = linear_rows(x, transcription.linear_constraints(x, robot.velocity_limit))
+    return Problem(
+        x=x, p=optimization.parameters.vec(), terms={k: optimization.cost_terms[k] for k in optimization.cost_terms},
+        A=A, lb=lb, ub=ub, row_names=names, task_residual=task_residual_function(robot, weights, K),
+        position_basis=transcription.position_basis, ref_shape=(12 * H, K), L=L, c=c.ravel(),
+        build_time=time.perf_counter() - start)
+
+
+class WholeBodyMPC:
+    """Built once; `step` solves from the measured state and reads out the command for the next period."""
+
+    def __init__(self, robot: Robot, scenario, control_dt: float):
+        start = time.perf_counter()
+        self.robot, self.control_dt = robot, control_dt
+        self.transcription = make_transcription(scenario.mpc, robot.n_dof)
+        self.problem = build_problem(robot, self.transcription, scenario.mpc.weights, scenario.robot.chest_joints,
+                                     scenario.robot.mirrored_joints)
+        self.solver = make_solver(self.problem, scenario.solver)
+        self.build_time = time.perf_counter() - start
+        self.x = None  # last good solution
+        self.pinned = list(robot.pinned_joints)
+
+    @property
+    def knot_times(self) -> np.ndarray:
+        return self.transcription.knot_times
+
+    def _constant(self, q_now: np.ndarray) -> np.ndarray:
+        t = self.transcription
+        positions = np.tile(q_now[:, None], t.position_basis.shape[1]).ravel("F")
+        return np.concatenate([positions, np.zeros(t.n_vars - positions.size)])
+
+    def step(self, q_now: np.ndarray, hand_ref: np.ndarray) -> tuple[Command, SolveResult]:
+        """hand_ref: (12 * hands) x K references at the knot times (see task_residual_function)."""
+        t, dt, robot = self.transcription, self.control_dt, self.robot
+        q_init = q_now.copy()
+        q_init[self.pinned] = robot.home[self.pinned]
+        lbx, ubx = t.bounds(robot.lower, robot.upper, robot.velocity_limit, q_init, self.pinned,
+                            robot.home[self.pinned])
+        x0 = self._constant(q_init) if self.x is None else t.shift(self.x, dt)
+        result = self.solver.solve(np.clip(x0, lbx, ubx), lbx, ubx, hand_ref.ravel(order="F"))
+        held = not result.success
+        if held and self.x is None:
+            raise RuntimeError(f"first whole-body MPC solve failed ({result.status}); no plan to hold")
+        self.x = t.shift(self.x, dt) if held else result.x
+        # A held plan is read out from its shifted copy: it continues from where it was, not from q_now.
+        q_cmd, qd_cmd = t.readout(self.x, dt)
+        base = list(robot.base_joints)  # velocity-commanded: the plan's mean velocity over the period
+        qd_cmd[base] = (q_cmd[base] - t.readout(self.x, 0.0)[0][base]) / dt
+        return Command(q_cmd, qd_cmd, held), result
