@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, ValidationError, ValidationInfo, field_validator
 
 EVA_HOME_DEG = {"LARM_JOINT2": -30.0, "LARM_JOINT4": 30.0, "LARM_JOINT5": 90.0,
                 "RARM_JOINT2": -30.0, "RARM_JOINT4": 30.0, "RARM_JOINT5": -90.0}
@@ -75,7 +75,7 @@ class MpcSpec(Strict):
     weights: Weights = Weights()
 
 
-SOLVER_MODES = ("ipopt", "gauss_newton", "rti", "knitro")
+HARMONY_SOLVERS = ("gauss_newton", "rti")  # harmony's own Gauss-Newton SQP and real-time iteration
 QP_SOLVERS = ("daqp", "qpoases", "osqp", "proxqp", "hpipm")
 
 
@@ -97,13 +97,18 @@ class SimSpec(Strict):
     position_gain: float = Field(0.5, gt=0, le=1, description="PyBullet position-control gain of chest/arms/head")
     velocity_gain: float = Field(1.0, gt=0, description="PyBullet velocity gain of chest/arms/head")
 
-    @model_validator(mode="after")
-    def _control_is_whole_multiple(self):
-        ratio = self.control_dt / self.physics_dt
+    @field_validator("control_dt")
+    @classmethod
+    def _control_is_whole_multiple(cls, control_dt: float, info: ValidationInfo) -> float:
+        physics_dt = info.data.get("physics_dt")
+        if physics_dt is None:
+            return control_dt
+        ratio = control_dt / physics_dt
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
-            raise ValueError(f"control_dt {self.control_dt} is not a whole multiple of physics_dt {self.physics_dt} "
-                             f"(ratio {ratio:.4g}); e.g. physics_dt {self.control_dt / max(1, round(ratio)):.6g}")
-        return self
+            raise ValueError(f"not a whole multiple of sim.physics_dt {physics_dt} (ratio {ratio:.4g}); valid: "
+                             f"k x physics_dt, e.g. {round(max(1, ratio)) * physics_dt:.6g}, or set physics_dt "
+                             f"{control_dt / max(1, round(ratio)):.6g}")
+        return control_dt
 
     @property
     def substeps(self) -> int:
@@ -195,10 +200,11 @@ def _check_solver(path: Path, scenario: Scenario) -> None:
     from harmony_cli.solvers import available_nlp_plugins  # casadi import kept out of schema-only use
 
     name = scenario.solver.name
-    plugins = available_nlp_plugins()
-    if name not in SOLVER_MODES and name not in plugins:
-        raise ScenarioError(f"{path}: solver.name: {name!r} is not available; choose one of: "
-                            f"{', '.join(sorted(set(SOLVER_MODES) | set(plugins)))}")
+    valid = HARMONY_SOLVERS + available_nlp_plugins()
+    if name not in valid:
+        hint = " (the KNITRO plugin needs libknitro on the loader path and a licence)" if name == "knitro" else ""
+        raise ScenarioError(f"{path}: solver.name: {name!r} is not available on this machine{hint}; "
+                            f"choose one of: {', '.join(valid)}")
 
 
 def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:

@@ -1,0 +1,102 @@
+"""The `harmony` command line: thin wrappers over library functions."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from rich.console import Console
+
+from harmony_cli.scenario import Scenario, ScenarioError, load_scenario
+
+app = typer.Typer(add_completion=False, no_args_is_help=True,
+                  help="Whole-body Bezier MPC experiments for dual-arm mobile manipulators, from YAML.")
+err = Console(stderr=True)
+
+SET_HELP = "Override a scenario field, e.g. --set mpc.knots=6 (repeatable)."
+
+
+def _fail(message: str) -> None:
+    err.print(f"[red]error:[/red] {message}", highlight=False, soft_wrap=True)
+    raise typer.Exit(2)
+
+
+@app.command()
+def run(scenario: Path, set: List[str] = typer.Option([], "--set", help=SET_HELP),
+        out: Optional[Path] = typer.Option(None, help="Run directory (default results/runs/<name>-<time>)"),
+        quiet: bool = typer.Option(False, help="No progress bar")):
+    """Run one scenario closed loop in PyBullet and write a run directory."""
+    from harmony_cli.run import run_scenario
+    from harmony_cli.solvers import SolverUnavailable
+
+    try:
+        run_dir = run_scenario(scenario, set, out, progress=not quiet)
+    except (ScenarioError, SolverUnavailable) as exc:
+        _fail(str(exc))
+    summary = json.loads((run_dir / "summary.json").read_text())
+    t, e = summary["solve_time_ms"], summary["tracking_error"]
+    typer.echo(f"{run_dir}: {summary['status']}, {summary['decision_variables']} decision variables, "
+               f"solve median {t['median']:.2f} / p95 {t['p95']:.2f} / max {t['max']:.2f} ms, "
+               f"max tracking error {100 * e['max_m']:.2f} cm, failed solves {summary['failed_solves']}")
+
+
+@app.command()
+def compare(scenario: Path, grid: List[str] = typer.Option(..., "--grid", help="key=v1,v2 (repeatable)"),
+            set: List[str] = typer.Option([], "--set", help=SET_HELP),
+            jobs: int = typer.Option(1, help="Runs at once (solve times are only comparable at 1)"),
+            out: Optional[Path] = typer.Option(None, help="Output directory (default results/compare/<name>)"),
+            name: str = typer.Option("table", help="Table file name stem"),
+            main_solver: Optional[str] = typer.Option(None, help="Solver of the main table (default: first)")):
+    """Run an ablation grid and write Table-1 style tables (md, csv, tex) and Fig. 4 plots."""
+    from harmony_cli.report import compare_report
+    from harmony_cli.sweep import expand_grid, run_grid
+
+    try:
+        base = load_scenario(scenario, set)
+        for point in expand_grid(grid):
+            load_scenario(scenario, list(set) + point)  # every grid point is valid before anything runs
+    except ScenarioError as exc:
+        _fail(str(exc))
+    out = out or Path("results/compare") / base.name
+    dirs = run_grid(scenario, grid, set, out, jobs)
+    for path in compare_report(dirs, out, name, main_solver):
+        typer.echo(path)
+
+
+@app.command()
+def validate(files: List[Path]):
+    """Validate scenario files; one line per bad file, exit code 2 if any is bad."""
+    bad = 0
+    for f in files:
+        try:
+            load_scenario(f)
+            typer.echo(f"{f}: ok")
+        except ScenarioError as exc:
+            err.print(f"[red]error:[/red] {exc}", highlight=False, soft_wrap=True)
+            bad += 1
+    if bad:
+        raise typer.Exit(2)
+
+
+@app.command()
+def schema():
+    """Print the scenario JSON schema (for editors)."""
+    typer.echo(json.dumps(Scenario.model_json_schema(), indent=2))
+
+
+@app.command()
+def bench(scenario: Path = typer.Option(Path("scenarios/paper/table1_s_shape.yaml")),
+          knots: List[int] = typer.Option([6, 26]), solver: List[str] = typer.Option(["ipopt", "gauss_newton", "rti"]),
+          steps: int = typer.Option(250, help="Control steps per configuration"),
+          start: float = typer.Option(8.0, help="Reference time of the first step [s]"),
+          out: Optional[Path] = typer.Option(Path("results/bench/bench.json"))):
+    """Whole-body MPC solve time: both transcriptions x K x solver modes, side by side, with ratios."""
+    from harmony_cli.bench import run_bench
+    from harmony_cli.solvers import SolverUnavailable
+
+    try:
+        run_bench(scenario, list(knots), list(solver), steps, start, out)
+    except (ScenarioError, SolverUnavailable) as exc:
+        _fail(str(exc))

@@ -1,0 +1,112 @@
+"""Table 1 in the paper's layout (Markdown, CSV, LaTeX) and Fig. 4, from run directories only."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+
+from harmony_cli.plots import plot_comparison
+
+# The paper's Table 1 (KNITRO, Intel i9 3.6 GHz): (transcription, K) -> (mean solve ms, max tracking error cm)
+PAPER = {("traditional", 6): (11, 19.4), ("traditional", 26): (58, 9.8), ("bezier", 6): (9, 7.8),
+         ("bezier", 26): (12, 5.4)}
+ORDER = {"traditional": 0, "bezier": 1}
+
+
+def load_runs(dirs: list[Path]) -> list[dict]:
+    runs = []
+    for d in dirs:
+        summary = json.loads((d / "summary.json").read_text()) if (d / "summary.json").exists() else {}
+        meta = json.loads((d / "meta.json").read_text()) if (d / "meta.json").exists() else {}
+        runs.append({"dir": d, "summary": summary, "meta": meta})
+    key = lambda r: (r["summary"].get("solver", ""), ORDER.get(r["summary"].get("transcription"), 9),
+                     r["summary"].get("knots", 0))
+    return sorted(runs, key=key)
+
+
+def _column(s: dict) -> str:
+    name = "Bezier" if s.get("transcription") == "bezier" else "Traditional"
+    return f"{name} K={s.get('knots')} ({s.get('solver')})"
+
+
+def _ours(s: dict) -> dict[str, str]:
+    if s.get("status") != "completed":
+        return {"Status": f"{s.get('status', 'missing')}: {s.get('error', '')}"}
+    t, e, n = s["solve_time_ms"], s["tracking_error"], s["decision_variables"]
+    bezier = s["transcription"] == "bezier"
+    formula = f"N x n_dof = {s['control_points']} x {s['n_dof']}" if bezier else f"2K x n_dof = 2 x {s['knots']} x {s['n_dof']}"
+    return {
+        "Long horizon": f"{s['horizon_s']:g} s", "Time knots": f"K = {s['knots']}",
+        "Control point No.": f"N = {s['control_points']}" if bezier else "-",
+        "Decision variable": s["decision_label"], "Decision variable No.": f"{formula} = {n}",
+        "Average computation time": f"{t['mean']:.1f} ms", "Median solve time": f"{t['median']:.1f} ms",
+        "p95 solve time": f"{t['p95']:.1f} ms", "Max solve time": f"{t['max']:.1f} ms",
+        "Max tracking error": f"{100 * e['max_m']:.2f} cm", "RMS tracking error": f"{100 * e['rms_m']:.2f} cm",
+        "Failed solves": f"{s['failed_solves']} / {s['steps']}", "Status": s["status"],
+    }
+
+
+def _paper(s: dict) -> dict[str, str] | None:
+    values = PAPER.get((s.get("transcription"), s.get("knots")))
+    if values is None or s.get("horizon_s") != 5.0:
+        return None
+    bezier = s["transcription"] == "bezier"
+    n = 6 * 18 if bezier else 2 * s["knots"] * 18
+    return {"Long horizon": "5 s", "Time knots": f"K = {s['knots']}", "Control point No.": "N = 6" if bezier else "-",
+            "Decision variable No.": str(n), "Average computation time": f"{values[0]} ms",
+            "Max tracking error": f"{values[1]} cm", "Status": "KNITRO, i9 3.6 GHz"}
+
+
+def table(runs: list[dict], with_paper: bool = True) -> pd.DataFrame:
+    columns = {}
+    for r in runs:
+        s = r["summary"]
+        columns[f"{_column(s)} ours"] = _ours(s)
+        paper = _paper(s) if with_paper else None
+        if paper:
+            columns[f"{_column(s).split(' (')[0]} paper"] = paper
+    frame = pd.DataFrame(columns).fillna("")
+    return frame.rename_axis("Items")
+
+
+def _latex(frame: pd.DataFrame) -> str:
+    esc = lambda v: str(v).replace("_", r"\_").replace("%", r"\%").replace("&", r"\&")
+    lines = [r"\begin{tabular}{l" + "c" * frame.shape[1] + "}", r"\hline",
+             " & ".join(["Items"] + [esc(c) for c in frame.columns]) + r" \\", r"\hline"]
+    lines += [" & ".join([esc(i)] + [esc(v) for v in row]) + r" \\" for i, row in frame.iterrows()]
+    return "\n".join(lines + [r"\hline", r"\end{tabular}", ""])
+
+
+def write_table(runs: list[dict], out: Path, name: str, title: str) -> list[Path]:
+    frame = table(runs)
+    concurrency = sorted({r["meta"].get("concurrency", 1) for r in runs})
+    cpu = sorted({r["meta"].get("cpu", "?") for r in runs})
+    note = (f"Measured by harmony on {', '.join(cpu)}, {'/'.join(map(str, concurrency))} run(s) at a time; "
+            f"solve time is the wall time of the whole-body MPC solver call per control step.")
+    header = "| Items | " + " | ".join(frame.columns) + " |\n|" + "---|" * (frame.shape[1] + 1) + "\n"
+    body = "".join("| " + " | ".join([str(i)] + [str(v) for v in row]) + " |\n" for i, row in frame.iterrows())
+    paths = [out / f"{name}.md", out / f"{name}.csv", out / f"{name}.tex"]
+    paths[0].write_text(f"# {title}\n\n{header}{body}\n{note}\n")
+    frame.to_csv(paths[1])
+    paths[2].write_text(f"% {title}. {note}\n" + _latex(frame))
+    return paths
+
+
+def compare_report(dirs: list[Path], out: Path, name: str = "table", main_solver: str | None = None) -> list[Path]:
+    """Table for the main solver (paper layout + paper values), an extended table with every run, Fig. 4."""
+    out.mkdir(parents=True, exist_ok=True)
+    runs = load_runs(dirs)
+    solvers = [r["summary"].get("solver") for r in runs]
+    main_solver = main_solver or (solvers[0] if solvers else None)
+    main = [r for r in runs if r["summary"].get("solver") == main_solver]
+    paths = write_table(main, out, name, f"Whole-body MPC: traditional vs Bezier ({main_solver})")
+    if len(set(solvers)) > 1:
+        paths += write_table(runs, out, f"{name}_extended", "Whole-body MPC: every solver mode")
+    steps = {_column(r["summary"]): pd.read_csv(r["dir"] / "steps.csv") for r in main
+             if r["summary"].get("status") == "completed"}
+    if steps:
+        hands = [c.removesuffix("_error_m") for c in next(iter(steps.values())).columns if c.endswith("_error_m")]
+        paths += plot_comparison(out, steps, hands)
+    return paths
