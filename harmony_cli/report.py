@@ -32,20 +32,26 @@ def _column(s: dict) -> str:
 
 
 def _ours(s: dict) -> dict[str, str]:
-    if s.get("status") != "completed":
-        return {"Status": f"{s.get('status', 'missing')}: {s.get('error', '')}"}
-    t, e, n = s["solve_time_ms"], s["tracking_error"], s["decision_variables"]
-    bezier = s["transcription"] == "bezier"
-    formula = f"N x n_dof = {s['control_points']} x {s['n_dof']}" if bezier else f"2K x n_dof = 2 x {s['knots']} x {s['n_dof']}"
-    return {
-        "Long horizon": f"{s['horizon_s']:g} s", "Time knots": f"K = {s['knots']}",
-        "Control point No.": f"N = {s['control_points']}" if bezier else "-",
-        "Decision variable": s["decision_label"], "Decision variable No.": f"{formula} = {n}",
-        "Average computation time": f"{t['mean']:.1f} ms", "Median solve time": f"{t['median']:.1f} ms",
-        "p95 solve time": f"{t['p95']:.1f} ms", "Max solve time": f"{t['max']:.1f} ms",
-        "Max tracking error": f"{100 * e['max_m']:.2f} cm", "RMS tracking error": f"{100 * e['rms_m']:.2f} cm",
-        "Failed solves": f"{s['failed_solves']} / {s['steps']}", "Status": s["status"],
-    }
+    """Everything the run measured; a run that failed part-way still shows what it built and measured."""
+    rows = {}
+    if "decision_variables" in s:
+        bezier = s["transcription"] == "bezier"
+        n_dof = s["n_dof"]
+        formula = (f"N x n_dof = {s['control_points']} x {n_dof}" if bezier
+                   else f"2K x n_dof = 2 x {s['knots']} x {n_dof}")
+        rows |= {"Long horizon": f"{s['horizon_s']:g} s", "Time knots": f"K = {s['knots']}",
+                 "Control point No.": f"N = {s['control_points']}" if bezier else "-",
+                 "Decision variable": s["decision_label"],
+                 "Decision variable No.": f"{formula} = {s['decision_variables']}"}
+    if "solve_time_ms" in s:
+        t, e = s["solve_time_ms"], s["tracking_error"]
+        rows |= {"Average computation time": f"{t['mean']:.1f} ms", "Median solve time": f"{t['median']:.1f} ms",
+                 "p95 solve time": f"{t['p95']:.1f} ms", "Max solve time": f"{t['max']:.1f} ms",
+                 "Max tracking error": f"{100 * e['max_m']:.2f} cm", "RMS tracking error": f"{100 * e['rms_m']:.2f} cm",
+                 "Failed solves": f"{s['failed_solves']} / {s['steps']}"}
+    status = s.get("status", "missing")
+    rows["Status"] = status if status == "completed" else f"{status}: {s.get('error', '')}"
+    return rows
 
 
 def _paper(s: dict) -> dict[str, str] | None:

@@ -165,9 +165,12 @@ def _one_line(path: Path, err: ValidationError) -> str:
     if e["type"] == "missing":
         return f"{path}: {field}: required field is missing"
     msg = e["msg"].removeprefix("Value error, ")
-    if e["type"] in ("literal_error", "union_tag_invalid"):
-        choices = e.get("ctx", {}).get("expected", "")
-        return f"{path}: {field}: {value!r} is not valid; choose one of: {choices}"
+    if e["type"] == "union_tag_invalid":
+        ctx = e["ctx"]
+        return (f"{path}: {field}.{ctx['discriminator'].strip(chr(39))}: {ctx['tag']!r} is not valid; "
+                f"choose one of: {ctx['expected_tags']}")
+    if e["type"] == "literal_error":
+        return f"{path}: {field}: {value!r} is not valid; choose one of: {e['ctx']['expected']}"
     return f"{path}: {field}: {value!r}: {msg}"
 
 

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,12 +22,27 @@ class Observation:
     hand_rotations: np.ndarray  # (hands, 3, 3)
 
 
+@contextlib.contextmanager
+def _silenced_stdout():
+    """PyBullet prints 'argv[0]=' from C on connect; keep the CLI's stdout clean."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    with open(os.devnull, "w") as null:
+        os.dup2(null.fileno(), 1)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 1)
+            os.close(saved)
+
+
 class Simulation:
     """Base through its virtual planar joints (velocity), every other joint by position + velocity targets."""
 
     def __init__(self, robot: Robot, sim_spec):
         self.robot, self.spec = robot, sim_spec
-        self.client = BulletClient(connection_mode=pybullet.DIRECT)
+        with _silenced_stdout():
+            self.client = BulletClient(connection_mode=pybullet.DIRECT)
         self.client.setGravity(0, 0, -9.81)
         self.client.setPhysicsEngineParameter(fixedTimeStep=sim_spec.physics_dt, deterministicOverlappingPairs=1)
         ground = self.client.createCollisionShape(pybullet.GEOM_PLANE)

@@ -1,0 +1,22 @@
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from harmony_cli.robot import load_robot
+from harmony_cli.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+TABLE1 = ROOT / "scenarios/paper/table1_s_shape.yaml"
+SMOKE = ROOT / "scenarios/smoke/s_shape_short.yaml"
+
+
+@pytest.fixture(scope="session")
+def eva():
+    scenario = load_scenario(TABLE1)
+    return load_robot(scenario.robot, TABLE1.parent)
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(0)

@@ -1,0 +1,117 @@
+"""Whole-body MPC: sizes from the built problems, derivatives cross-checked, solvers and transcriptions agree."""
+
+import casadi as cs
+import numpy as np
+import pytest
+
+from harmony_cli.loop import hand_reference_matrix
+from harmony_cli.reference import HandReference
+from harmony_cli.scenario import load_scenario
+from harmony_cli.solvers import GaussNewtonHessian, make_solver
+from harmony_cli.transcription import TraditionalTranscription, make_transcription
+from harmony_cli.wholebody import WholeBodyMPC, build_problem
+
+from conftest import TABLE1
+
+
+def _problem(eva, *overrides):
+    scenario = load_scenario(TABLE1, list(overrides))
+    transcription = make_transcription(scenario.mpc, eva.n_dof)
+    return scenario, transcription, build_problem(eva, transcription, scenario.mpc.weights,
+                                                  scenario.robot.chest_joints, scenario.robot.mirrored_joints)
+
+
+@pytest.mark.parametrize("transcription, knots, expected", [
+    ("bezier", 6, 108), ("bezier", 26, 108), ("traditional", 6, 216), ("traditional", 26, 936)])
+def test_decision_variable_counts_match_the_paper(eva, transcription, knots, expected):
+    *_, problem = _problem(eva, f"mpc.transcription={transcription}", f"mpc.knots={knots}")
+    assert problem.n_vars == expected
+
+
+def _reference(eva, scenario, transcription, t=9.0):
+    ref = HandReference(scenario.reference, eva.hand_poses_numeric(eva.home))
+    return hand_reference_matrix(*ref.poses(t + transcription.knot_times)).ravel(order="F")
+
+
+@pytest.mark.parametrize("transcription", ["bezier", "traditional"])
+def test_structured_gradient_matches_finite_differences_of_the_named_cost_terms(eva, rng, transcription):
+    scenario, tr, problem = _problem(eva, f"mpc.transcription={transcription}", "mpc.knots=6")
+    p = _reference(eva, scenario, tr)
+    x = np.tile(eva.home, tr.n_vars // eva.n_dof) + 0.05 * rng.standard_normal(tr.n_vars)
+    _, g = GaussNewtonHessian(problem)(x, p)
+    f = lambda z: sum(problem.evaluate_terms(z, p).values())
+    eps = 1e-6
+    fd = np.array([(f(x + eps * e) - f(x - eps * e)) / (2 * eps) for e in np.eye(tr.n_vars)])
+    np.testing.assert_allclose(g, fd, rtol=1e-5, atol=1e-7)
+
+
+@pytest.mark.parametrize("transcription", ["bezier", "traditional"])
+def test_gauss_newton_hessian_equals_exact_hessian_where_residuals_vanish(eva, rng, transcription):
+    scenario, tr, problem = _problem(eva, f"mpc.transcription={transcription}", "mpc.knots=6",
+                                     "mpc.weights={position: 1, orientation: 1, chest_yaw: 10, arm_symmetry: 0.1, "
+                                     "posture: 0, velocity: 0.01, acceleration: 0.001}")
+    x = np.tile(eva.home, tr.n_vars // eva.n_dof) + 0.05 * rng.standard_normal(tr.n_vars)
+    q_knots = tr.knots(x)[0]
+    poses = [eva.hand_poses_numeric(q_knots[:, k]) for k in range(tr.n_knots)]
+    positions = np.array([[p.ravel() for p, _ in pose] for pose in poses])
+    rotations = np.array([[r for _, r in pose] for pose in poses])
+    p = hand_reference_matrix(positions, rotations).ravel(order="F")  # the reference is the trajectory itself
+    H_gn, _ = GaussNewtonHessian(problem)(x, p)
+    f = sum(problem.terms.values())
+    H_exact = np.array(cs.Function("h", [problem.x, problem.p], [cs.hessian(f, problem.x)[0]])(x, p))
+    np.testing.assert_allclose(H_gn, H_exact, atol=1e-8)
+
+
+def test_bezier_trajectory_satisfies_trapezoidal_integration_better_than_euler(eva, rng):
+    """Bezier vs collocation: a smooth Bezier curve sampled at K knots nearly satisfies the collocation rows."""
+    scenario, bez, _ = _problem(eva, "mpc.knots=26")
+    x = np.tile(eva.home, 6) + 0.3 * rng.standard_normal(bez.n_vars)
+    q, dq, _ = bez.knots(x)
+    state = np.concatenate([q.ravel("F"), dq.ravel("F")])
+    residual = {}
+    for integration in ("euler", "trapezoidal"):
+        trad = TraditionalTranscription(eva.n_dof, 26, 5.0, integration)
+        sym = cs.SX.sym("x", trad.n_vars)
+        (expr, _, _), = trad.linear_constraints(sym, eva.velocity_limit).values()
+        residual[integration] = np.abs(np.array(cs.Function("r", [sym], [expr])(state))).max()
+    assert residual["trapezoidal"] < 0.05 * residual["euler"]
+    assert residual["trapezoidal"] < 1e-3
+
+
+def _solve_once(eva, *overrides):
+    scenario = load_scenario(TABLE1, list(overrides))
+    mpc = WholeBodyMPC(eva, scenario, scenario.sim.control_dt)
+    p = _reference(eva, scenario, mpc.transcription, t=6.0)
+    command, result = mpc.step(eva.home.copy(), np.reshape(p, mpc.problem.ref_shape, order="F"))
+    return mpc, command, result
+
+
+def test_ipopt_and_gauss_newton_sqp_reach_the_same_optimum(eva):
+    _, _, ipopt = _solve_once(eva, "mpc.knots=6", "solver.name=ipopt")
+    mpc, _, gn = _solve_once(eva, "mpc.knots=6", "solver.name=gauss_newton", "solver.tol=1.0e-9",
+                             "solver.max_iter=100")
+    assert ipopt.success and gn.success
+    np.testing.assert_allclose(gn.x, ipopt.x, atol=2e-4)
+
+
+def test_solution_starts_at_the_measured_state_with_the_head_pinned(eva):
+    mpc, command, result = _solve_once(eva, "solver.name=rti")
+    q0, _ = mpc.transcription.readout(result.x, 0.0)
+    np.testing.assert_allclose(q0, eva.home, atol=1e-9)
+    head = list(eva.pinned_joints)
+    np.testing.assert_allclose(mpc.transcription.positions(result.x)[head], 0.0, atol=1e-9)
+
+
+def test_failed_solve_is_reported_and_the_last_good_plan_is_held(eva):
+    scenario = load_scenario(TABLE1, ["mpc.knots=6"])
+    mpc = WholeBodyMPC(eva, scenario, scenario.sim.control_dt)
+    p = np.reshape(_reference(eva, scenario, mpc.transcription, 6.0), mpc.problem.ref_shape, order="F")
+    first, ok = mpc.step(eva.home.copy(), p)
+    assert ok.success and not first.held
+    plan = mpc.x.copy()
+    # an IPOPT limited to one iteration cannot converge from a far-away state: the solve fails
+    mpc.solver = make_solver(mpc.problem, load_scenario(TABLE1, ["solver.options={ipopt.max_iter: 1}"]).solver)
+    second, failed = mpc.step(first.q + 0.3, p)
+    assert not failed.success and second.held
+    expected_q, _ = mpc.transcription.readout(mpc.transcription.shift(plan, 0.02), 0.02)
+    np.testing.assert_allclose(second.q, expected_q)
