@@ -83,8 +83,8 @@ class SolverSpec(Strict):
     name: str = Field("ipopt", description="ipopt | gauss_newton | rti | knitro | any CasADi nlpsol plugin")
     qp: Literal["daqp", "qpoases", "osqp", "proxqp", "hpipm"] = Field(
         "daqp", description="QP solver of gauss_newton and rti")
-    hessian: Literal["gauss_newton", "exact"] = Field(
-        "gauss_newton", description="NLP plugins: structured Gauss-Newton Hessian or CasADi's exact one")
+    hessian: Literal["exact", "gauss_newton"] = Field(
+        "exact", description="NLP plugins: exact Hessian, or the Gauss-Newton one (both on the knot structure)")
     max_iter: int = Field(30, ge=1, description="Gauss-Newton SQP iterations per solve (rti: always 1)")
     tol: PositiveFloat = Field(1e-6, description="Gauss-Newton SQP step tolerance")
     options: dict[str, Any] = Field(default_factory=dict, description="passed to the CasADi plugin")

@@ -2,6 +2,8 @@
 
 OpTaS builds the problem (variables, parameters, named cost terms); solving through its own wrapper costs
 3-5x (every equality becomes two rows, every bound a row, no dual warm start), so we call CasADi directly.
+Speed: derivatives come from the knot structure (per-knot C code), fixed variables are eliminated, and
+arrays cross into CasADi without copies.
 """
 
 from __future__ import annotations
@@ -11,6 +13,9 @@ from dataclasses import dataclass, field
 
 import casadi as cs
 import numpy as np
+import scipy.sparse as sp
+
+from harmony_cli.knot_derivatives import Buffered, KnotDerivatives
 
 NLP_CANDIDATES = ("ipopt", "sqpmethod", "feasiblesqpmethod", "blocksqp", "fatrop", "bonmin", "uno", "knitro",
                   "snopt", "worhp", "madnlp")
@@ -81,113 +86,56 @@ def linear_rows(x: cs.SX, named: dict[str, tuple]) -> tuple[np.ndarray, np.ndarr
     return np.vstack(A), np.concatenate(lb), np.concatenate(ub), names
 
 
-class Buffered:
-    """Zero-copy evaluation of a CasADi Function on preallocated numpy arrays of each input's/output's nonzeros.
+class _Oracle(cs.Callback):
+    """(x, p) -> f, (f, gradient) or Hessian (full symmetric pattern) from a KnotDerivatives."""
 
-    Converting numpy <-> DM through Python costs ~1 ms for a 108 x 108 matrix; this path costs microseconds.
-    """
-
-    def __init__(self, f: cs.Function):
-        self.f = f
-        self.args = {n: np.zeros(f.nnz_in(i)) for i, n in enumerate(f.name_in())}
-        self.res = {n: np.zeros(f.nnz_out(i)) for i, n in enumerate(f.name_out())}
-        self._buffer, self._eval = f.buffer()
-        for i, n in enumerate(f.name_in()):
-            self._buffer.set_arg(i, memoryview(self.args[n]))
-        for i, n in enumerate(f.name_out()):
-            self._buffer.set_res(i, memoryview(self.res[n]))
-
-    def __call__(self, **inputs) -> dict[str, np.ndarray]:
-        for name, value in inputs.items():
-            self.args[name][:] = np.ravel(value, order="F")
-        self._eval()
-        return self.res
-
-    def stats(self) -> dict:
-        return self._buffer.stats()
-
-
-class GaussNewtonHessian:
-    """H = 2 sum_k kron(b_k b_k^T, J_k^T J_k) + 2 L^T L and the exact gradient, on the knot structure.
-
-    The nonlinear residual of knot k depends only on q_k = X_pos b_k, so one evaluation costs K small
-    Jacobians (m x n_dof) instead of one dense (mK x n_vars) one.
-    """
-
-    def __init__(self, problem: Problem):
-        self.problem = problem
-        B = problem.position_basis
-        self.n_knots, self.n_pos = B.shape
-        q = cs.SX.sym("q", problem.task_residual.size1_in(0))
-        ref = cs.SX.sym("ref", problem.task_residual.size1_in(1))
-        r = problem.task_residual(q, ref)
-        self.n_dof, self.m = q.numel(), r.numel()
-        mapped = cs.Function("res_jac", [q, ref], [r, cs.densify(cs.jacobian(r, q).T)]).map(self.n_knots)
-        self.res_jac = Buffered(mapped)
-        self.block_diagonal = B.shape[0] == B.shape[1] and np.allclose(B, np.eye(B.shape[0]))
-        self.outer = np.einsum("ka,kb->kab", B, B)  # b_k b_k^T
-        self.H_lin = 2 * problem.L.T @ problem.L
-        self.g_lin0 = 2 * problem.L.T @ problem.c
-        mask = np.abs(self.H_lin) > 0
-        nd = self.n_dof
-        if self.block_diagonal:
-            for k in range(self.n_pos):
-                mask[k * nd:(k + 1) * nd, k * nd:(k + 1) * nd] = True
-        else:
-            mask[: nd * self.n_pos, : nd * self.n_pos] = True
-        self.mask = mask | np.eye(problem.n_vars, dtype=bool)
-
-    def __call__(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        nd, npos, K, B = self.n_dof, self.n_pos, self.n_knots, self.problem.position_basis
-        X = x[: nd * npos].reshape((nd, npos), order="F")
-        out = self.res_jac(i0=X @ B.T, i1=p)
-        r = out["o0"].reshape(K, self.m)
-        Jt = out["o1"].reshape(K, self.m, nd).transpose(0, 2, 1)  # K x n_dof x m (J_k^T)
-        JtJ = Jt @ Jt.transpose(0, 2, 1)
-        Jtr = np.einsum("kim,km->ik", Jt, r)  # n_dof x K
-        H = self.H_lin.copy()
-        if self.block_diagonal:
-            for k in range(K):
-                H[k * nd:(k + 1) * nd, k * nd:(k + 1) * nd] += 2 * JtJ[k]
-        else:
-            H4 = np.tensordot(self.outer, JtJ, axes=(0, 0))  # a, b, i, j
-            H[: nd * npos, : nd * npos] += 2 * H4.transpose(0, 2, 1, 3).reshape(nd * npos, nd * npos)
-        g = self.H_lin @ x + self.g_lin0
-        g[: nd * npos] += 2 * (Jtr @ B).ravel(order="F")
-        return H, g
-
-
-class _HessianCallback(cs.Callback):
-    """hess_lag for nlpsol: lam_f * Gauss-Newton Hessian (constraints are linear: no curvature), upper triangle."""
-
-    def __init__(self, hessian: GaussNewtonHessian, n_p: int, n_g: int):
+    def __init__(self, model: KnotDerivatives, kind: str, n_p: int):
         cs.Callback.__init__(self)
-        self.hessian, self.n_p, self.n_g = hessian, n_p, n_g
-        n = hessian.mask.shape[0]
-        upper = np.triu(hessian.mask)
-        self.cols, self.rows = np.nonzero(upper.T)
-        self.sparsity = cs.Sparsity.triplet(n, n, self.rows.tolist(), self.cols.tolist())
-        self.construct("gauss_newton_hess_lag", {})
+        self.model, self.kind, self.sizes, n = model, kind, (model.n_vars, n_p), model.n_vars
+        self.out = {"f": [cs.Sparsity.dense(1)], "grad": [cs.Sparsity.dense(1), cs.Sparsity.dense(n)],
+                    "hess": [cs.Sparsity.triplet(n, n, model.rows.tolist(), model.cols.tolist())]}[kind]
+        self.construct(f"structured_{kind}", {})
 
-    def get_n_in(self): return 4
-    def get_n_out(self): return 1
-    def get_sparsity_in(self, i):
-        return cs.Sparsity.dense([self.hessian.mask.shape[0], self.n_p, 1, self.n_g][i], 1)
-    def get_sparsity_out(self, i): return self.sparsity
+    def get_n_in(self): return 2
+    def get_n_out(self): return len(self.out)
+    def get_sparsity_in(self, i): return cs.Sparsity.dense(self.sizes[i])
+    def get_sparsity_out(self, i): return self.out[i]
     def has_eval_buffer(self): return True
+    def has_reverse(self, n_adj): return self.kind == "f" and n_adj == 1
 
-    def eval_buffer(self, arg, res):
-        x, p, lam_f = (np.frombuffer(arg[i], dtype=float) for i in range(3))
-        H, _ = self.hessian(x, p)
-        np.frombuffer(res[0], dtype=float)[:] = lam_f[0] * H[self.rows, self.cols]
+    def get_reverse(self, n_adj, name, inames, onames, opts):  # df = gradient dx (nlpsol builds nlp_grad with it)
+        x, p, f, adj = (cs.MX.sym(v, s) for v, s in zip("xpfa", (*self.sizes, 1, 1)))
+        return cs.Function(name, [x, p, f, adj], [adj * self.grad(x, p)[1], cs.MX(self.sizes[1], 1)], inames, onames)
+
+    def eval_buffer(self, arg, res):  # CasADi passes None for zero inputs and for outputs it does not want
+        x, p = (np.zeros(n) if a is None else np.frombuffer(a, dtype=float) for n, a in zip(self.sizes, arg))
+        f, g, vals = self.model.evaluate(x, p)
+        for buffer, value in zip(res, [vals] if self.kind == "hess" else [f, g]):
+            if buffer is not None:
+                np.frombuffer(buffer, dtype=float)[:] = value
         return 0
 
 
-class NlpSolver:
-    """Any CasADi nlpsol plugin (IPOPT by default), primal + dual warm-started from the previous solve.
+class Reduction:
+    """The problem without the variables fixed by lbx == ubx (initial state, pinned joints) and without the rows
+    that then have no free variable: smaller, and the equality rows left stay linearly independent."""
 
-    hessian="gauss_newton" hands the plugin the structured Gauss-Newton Hessian (the cost is a sum of squares
-    and the constraints linear, so the KKT point is the same); "exact" lets CasADi differentiate twice.
+    def __init__(self, A: np.ndarray, free: np.ndarray):
+        self.idx, self.n = np.flatnonzero(free), int(free.sum())
+        self.a = np.flatnonzero(np.any(A[:, free] != 0, axis=1))
+        self.A, self.A_free = sp.csr_matrix(A[self.a]), sp.csc_matrix(A[self.a][:, free])
+
+    def rows(self, lb: np.ndarray, ub: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds on A_free z with A x's part (x: fixed values, anything else where z will be added) moved over."""
+        offset = self.A @ x
+        return lb[self.a] - offset, ub[self.a] - offset
+
+
+class NlpSolver:
+    """Any CasADi nlpsol plugin (IPOPT by default) on the reduced problem, primal + dual warm-started.
+
+    f, gradient and Hessian come from the compiled knot structure (hessian="exact": the exact Hessian,
+    "gauss_newton": the cost is a sum of squares and the constraints linear, so the KKT point is the same).
     """
 
     def __init__(self, problem: Problem, plugin: str, options: dict, hessian: str = "gauss_newton"):
@@ -196,82 +144,110 @@ class NlpSolver:
             hint = " (KNITRO needs its library on the loader path and a licence)" if plugin == "knitro" else ""
             raise SolverUnavailable(f"solver.name: {plugin!r} is not available here{hint}; available NLP plugins: "
                                     f"{', '.join(available)}; harmony modes: gauss_newton, rti")
-        defaults = {"print_time": False, "record_time": True}
-        if plugin == "ipopt":
+        defaults = {"print_time": False, "record_time": True, "calc_lam_p": False}
+        if plugin == "ipopt":  # adaptive mu: 3 instead of 5-12 warm-started iterations to the same optimum
             defaults |= {"ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.warm_start_init_point": "yes",
-                         "ipopt.mu_init": 1e-4, "ipopt.warm_start_bound_push": 1e-6,
+                         "ipopt.mu_strategy": "adaptive", "ipopt.warm_start_bound_push": 1e-6,
                          "ipopt.warm_start_mult_bound_push": 1e-6}
         elif plugin in ("sqpmethod", "feasiblesqpmethod"):
             defaults |= {"print_header": False, "print_iteration": False, "print_status": False,
                          "qpsol": "qrqp", "qpsol_options": {"print_iter": False, "print_header": False}}
-        if hessian == "gauss_newton":
-            self._hess = _HessianCallback(GaussNewtonHessian(problem), problem.p.numel(), problem.A.shape[0])
-            defaults["hess_lag"] = self._hess
-        g = cs.mtimes(cs.DM(problem.A), problem.x)
-        nlp = {"x": problem.x, "p": problem.p, "f": sum(problem.terms.values()), "g": g}
-        try:
-            self.solver = cs.nlpsol("mpc", plugin, nlp, defaults | options)
-        except RuntimeError as exc:
-            raise SolverUnavailable(f"solver.name: {plugin!r} failed to initialise: {str(exc).splitlines()[-1]}; "
-                                    f"available NLP plugins: {', '.join(available)}") from None
-        self.problem = problem
-        self.lam_x = np.zeros(problem.n_vars)
-        self.lam_g = np.zeros(problem.A.shape[0])
+        self.problem, self.plugin, self.options = problem, plugin, defaults | options
+        model = KnotDerivatives(problem, exact=hessian == "exact")
+        self.oracle = [_Oracle(model, kind, problem.p.numel()) for kind in ("f", "grad", "hess")]
+        self.oracle[0].grad = self.oracle[1]
+        self.lam_x, self.lam_g = np.zeros(problem.n_vars), np.zeros(problem.A.shape[0])
+        self._solvers = {}
+        self._solver(np.ones(problem.n_vars, dtype=bool))  # checks the options now, not at the first solve
+
+    def _solver(self, free: np.ndarray):
+        """nlpsol over z = x[free] with parameters [p; x[~free]], built once per pattern (MX wrappers: cheap)."""
+        if free.tobytes() not in self._solvers:
+            r, n_p, n, idx = Reduction(self.problem.A, free), self.problem.p.numel(), free.size, np.flatnonzero(free)
+            z, pe, lam_f = cs.MX.sym("z", r.n), cs.MX.sym("p", n_p + n - r.n), cs.MX.sym("lam_f")
+            place = lambda i: cs.DM(sp.csc_matrix((np.ones(i.size), (i, np.arange(i.size))), (n, i.size)))
+            x, p = cs.mtimes(place(idx), z) + cs.mtimes(place(np.flatnonzero(~free)), pe[n_p:]), pe[:n_p]
+            A = cs.DM(r.A_free)
+            f, g, grad = self.oracle[0](x, p), cs.mtimes(A, z), self.oracle[1](x, p)[1][idx]
+            triu = cs.triu if self.plugin in ("ipopt", "bonmin", "knitro") else (lambda h: h)  # their convention
+            derivatives = {  # whichever of these the plugin takes
+                "grad_f": cs.Function("grad_f", [z, pe], [f, grad]), "jac_g": cs.Function("jac_g", [z, pe], [g, A]),
+                "jac_fg": cs.Function("jac_fg", [z, pe], [f, grad, g, A]),
+                "hess_lag": cs.Function("hess_lag", [z, pe, lam_f, cs.MX.sym("lam_g", r.a.size)],
+                                        [triu(lam_f * self.oracle[2](x, p)[idx, idx])])}
+            options = self.options | {k: v for k, v in derivatives.items() if k in cs.nlpsol_options(self.plugin)}
+            try:
+                solver = Buffered(cs.nlpsol("mpc", self.plugin, {"x": z, "p": pe, "f": f, "g": g}, options))
+            except RuntimeError as exc:
+                raise SolverUnavailable(f"solver.name: {self.plugin!r} failed to initialise: "
+                                        f"{str(exc).splitlines()[-1]}") from None
+            self._solvers[free.tobytes()] = solver, r
+        return self._solvers[free.tobytes()]
 
     def solve(self, x0, lbx, ubx, p) -> SolveResult:
         start = time.perf_counter()
-        sol = self.solver(x0=x0, lbx=lbx, ubx=ubx, lbg=self.problem.lb, ubg=self.problem.ub, p=p,
-                          lam_x0=self.lam_x, lam_g0=self.lam_g)
-        elapsed = time.perf_counter() - start
-        stats = self.solver.stats()
+        free = lbx < ubx
+        solver, r = self._solver(free)
+        x = np.where(free, 0.0, lbx)
+        lbg, ubg = r.rows(self.problem.lb, self.problem.ub, x)
+        out = solver(x0=x0[free], lbx=lbx[free], ubx=ubx[free], lbg=lbg, ubg=ubg, p=np.r_[p, lbx[~free]],
+                     lam_x0=self.lam_x[free], lam_g0=self.lam_g[r.a])
+        stats = solver.stats()
+        x[free] = out["x"]
         if stats["success"]:
-            self.lam_x, self.lam_g = np.array(sol["lam_x"]).ravel(), np.array(sol["lam_g"]).ravel()
-        return SolveResult(np.array(sol["x"]).ravel(), bool(stats["success"]), str(stats["return_status"]),
-                           int(stats.get("iter_count", -1)), elapsed)
+            self.lam_x[:], self.lam_g[:] = 0.0, 0.0
+            self.lam_x[free], self.lam_g[r.a] = out["lam_x"], out["lam_g"]
+        return SolveResult(x, bool(stats["success"]), str(stats["return_status"]), int(stats.get("iter_count", -1)),
+                           time.perf_counter() - start)
 
 
 class GaussNewtonSolver:
-    """Gauss-Newton SQP with structured Hessians and a QP per iteration; `max_iter=1` is real-time iteration."""
+    """Gauss-Newton SQP with structured Hessians and a QP per iteration over the free variables (see Reduction);
+    `max_iter=1` is real-time iteration."""
 
     def __init__(self, problem: Problem, qp: str, max_iter: int, tol: float):
         self.problem, self.max_iter, self.tol = problem, max_iter, tol
-        self.hessian = GaussNewtonHessian(problem)
-        mask = self.hessian.mask
-        n = problem.n_vars
-        self.h_cols, self.h_rows = np.nonzero(mask.T)  # CCS order of the nonzeros
-        h_sparsity = cs.Sparsity.triplet(n, n, self.h_rows.tolist(), self.h_cols.tolist())
-        a_cols, a_rows = np.nonzero((problem.A != 0).T)
-        a_sparsity = cs.Sparsity.triplet(*problem.A.shape, a_rows.tolist(), a_cols.tolist())
-        options = {"error_on_fail": False}
+        self.model = KnotDerivatives(problem)
+        self.qp_name, self.options = qp, {"error_on_fail": False}
         if qp == "qpoases":
-            options |= {"printLevel": "none"}
+            self.options |= {"printLevel": "none"}
         elif qp == "osqp":
-            options |= {"osqp": {"verbose": False, "eps_abs": 1e-6, "eps_rel": 1e-6, "max_iter": 4000}}
-        self.qp_function = cs.conic("gn_qp", qp, {"h": h_sparsity, "a": a_sparsity}, options)
-        self.qp = Buffered(self.qp_function)
-        self.qp.args["a"][:] = problem.A[a_rows, a_cols]
+            self.options |= {"osqp": {"verbose": False, "eps_abs": 1e-6, "eps_rel": 1e-6, "max_iter": 4000}}
+        self._qps = {}
         self.regularisation = 1e-6
+
+    def _qp(self, free: np.ndarray):
+        """(QP solver, Reduction, kept Hessian nonzeros, their diagonal), built once per pattern."""
+        if free.tobytes() not in self._qps:
+            r, rows, cols, index = Reduction(self.problem.A, free), self.model.rows, self.model.cols, np.cumsum(free)
+            kept = np.flatnonzero(free[rows] & free[cols])  # still in CCS order
+            h = cs.Sparsity.triplet(r.n, r.n, (index[rows[kept]] - 1).tolist(), (index[cols[kept]] - 1).tolist())
+            a = cs.Sparsity(*r.A_free.shape, r.A_free.indptr.tolist(), r.A_free.indices.tolist())
+            solver = Buffered(cs.conic("gn_qp", self.qp_name, {"h": h, "a": a}, self.options))
+            solver.args["a"][:] = r.A_free.data
+            self._qps[free.tobytes()] = solver, r, kept, np.flatnonzero(rows[kept] == cols[kept])
+        return self._qps[free.tobytes()]
 
     def solve(self, x0, lbx, ubx, p) -> SolveResult:
         start = time.perf_counter()
-        problem = self.problem
-        x = np.clip(x0, lbx, ubx)
+        free = lbx < ubx
+        qp, r, kept, diagonal = self._qp(free)
+        x = np.clip(x0, lbx, ubx)  # the fixed variables are exact from here on
         status, success = "max_iter", False
         for it in range(1, self.max_iter + 1):
-            H, g = self.hessian(x, p)
-            H[np.diag_indices_from(H)] += self.regularisation
-            Ax = problem.A @ x
-            out = self.qp(h=H[self.h_rows, self.h_cols], g=g, lba=problem.lb - Ax, uba=problem.ub - Ax,
-                          lbx=lbx - x, ubx=ubx - x)
-            stats = self.qp.stats()
+            _, g, vals = self.model.evaluate(x, p)
+            h = vals[kept]
+            h[diagonal] += self.regularisation
+            lba, uba = r.rows(self.problem.lb, self.problem.ub, x)
+            out = qp(h=h, g=g[free], lba=lba, uba=uba, lbx=lbx[free] - x[free], ubx=ubx[free] - x[free])
+            stats = qp.stats()
             if not stats["success"]:
                 status, success = f"qp_failed: {stats.get('return_status', '?')}", False
                 break
-            dx = out["x"]
-            x = x + dx
+            x[free] += out["x"]
             if self.max_iter == 1:
                 status, success = "rti_step", True
-            elif np.max(np.abs(dx)) < self.tol:
+            elif np.max(np.abs(out["x"])) < self.tol:
                 status, success = "converged", True
                 break
         return SolveResult(x, success, status, it, time.perf_counter() - start)

@@ -7,7 +7,8 @@ import pytest
 from harmony_cli.loop import hand_reference_matrix
 from harmony_cli.reference import HandReference
 from harmony_cli.scenario import load_scenario
-from harmony_cli.solvers import GaussNewtonHessian, make_solver
+from harmony_cli.knot_derivatives import KnotDerivatives
+from harmony_cli.solvers import make_solver
 from harmony_cli.transcription import TraditionalTranscription, make_transcription
 from harmony_cli.wholebody import WholeBodyMPC, build_problem
 
@@ -38,7 +39,7 @@ def test_structured_gradient_matches_finite_differences_of_the_named_cost_terms(
     scenario, tr, problem = _problem(eva, f"mpc.transcription={transcription}", "mpc.knots=6")
     p = _reference(eva, scenario, tr)
     x = np.tile(eva.home, tr.n_vars // eva.n_dof) + 0.05 * rng.standard_normal(tr.n_vars)
-    _, g = GaussNewtonHessian(problem)(x, p)
+    _, g = KnotDerivatives(problem)(x, p)
     f = lambda z: sum(problem.evaluate_terms(z, p).values())
     eps = 1e-6
     fd = np.array([(f(x + eps * e) - f(x - eps * e)) / (2 * eps) for e in np.eye(tr.n_vars)])
@@ -56,10 +57,21 @@ def test_gauss_newton_hessian_equals_exact_hessian_where_residuals_vanish(eva, r
     positions = np.array([[p.ravel() for p, _ in pose] for pose in poses])
     rotations = np.array([[r for _, r in pose] for pose in poses])
     p = hand_reference_matrix(positions, rotations).ravel(order="F")  # the reference is the trajectory itself
-    H_gn, _ = GaussNewtonHessian(problem)(x, p)
+    H_gn, _ = KnotDerivatives(problem)(x, p)
     f = sum(problem.terms.values())
     H_exact = np.array(cs.Function("h", [problem.x, problem.p], [cs.hessian(f, problem.x)[0]])(x, p))
     np.testing.assert_allclose(H_gn, H_exact, atol=1e-8)
+
+
+@pytest.mark.parametrize("transcription", ["bezier", "traditional"])
+def test_structured_exact_hessian_equals_casadi_exact_hessian_anywhere(eva, rng, transcription):
+    scenario, tr, problem = _problem(eva, f"mpc.transcription={transcription}", "mpc.knots=6")
+    p = _reference(eva, scenario, tr)
+    x = np.tile(eva.home, tr.n_vars // eva.n_dof) + 0.2 * rng.standard_normal(tr.n_vars)
+    H, _ = KnotDerivatives(problem, exact=True)(x, p)
+    f = sum(problem.terms.values())
+    H_exact = np.array(cs.Function("h", [problem.x, problem.p], [cs.hessian(f, problem.x)[0]])(x, p))
+    np.testing.assert_allclose(H, H_exact, atol=1e-9)
 
 
 def test_bezier_trajectory_satisfies_trapezoidal_integration_better_than_euler(eva, rng):
