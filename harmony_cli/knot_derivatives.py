@@ -79,9 +79,12 @@ class KnotDerivatives:
         q, ref = (cs.SX.sym(name, problem.task_residual.size1_in(i)) for i, name in enumerate(("q", "ref")))
         r = problem.task_residual(q, ref)
         self.n_dof, self.m, self.n_vars, nd = q.numel(), r.numel(), n, q.numel()
-        hess = [cs.densify(cs.hessian(cs.sumsqr(r), q)[0])] if exact else []
-        per_knot = cs.Function("harmony_knot", [q, ref], [r, cs.densify(cs.jacobian(r, q).T), *hess])
-        self.knots = Buffered(compiled(per_knot.map(K)))
+        knot_maps = {"value": [r], "gradient": [r, cs.densify(cs.jacobian(r, q).T)],
+                     "hessian": [cs.densify(cs.hessian(cs.sumsqr(r), q)[0])]}
+        # line-search trial points need f only, gradients r and J; the exact per-knot Hessians cost the most
+        self.knots = {kind: Buffered(compiled(cs.Function(f"harmony_{kind}", [q, ref], outs).map(K)))
+                      for kind, outs in knot_maps.items() if kind != "hessian" or exact}
+        self._cache = {}
         self.L, self.Lt, self.c = sp.csr_matrix(problem.L), sp.csr_matrix(problem.L.T), problem.c
         # block (a, b) of the position Hessian is sum_k B[k, a] B[k, b] H_k: keep the nonzero (a, b) pairs
         outer = np.einsum("ka,kb->kab", self.B, self.B).reshape(K, npos * npos)
@@ -98,27 +101,48 @@ class KnotDerivatives:
         lookup = np.full((n, n), nl_rows.size)
         lookup[nl_rows, nl_cols] = np.arange(nl_rows.size)
         self.nl_index = lookup[self.rows, self.cols]  # into the flat knot blocks, then a trailing zero
-        self._blocks, self._last = np.zeros(nl_rows.size + 1), None
+        self._blocks = np.zeros(nl_rows.size + 1)
 
-    def evaluate(self, x: np.ndarray, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-        """(f, gradient, Hessian values), cached for the last (x, p): IPOPT asks f, g and H at one point."""
-        if self._last is not None and np.array_equal(x, self._last[0]) and np.array_equal(p, self._last[1]):
-            return self._last[2]
-        nd, (K, npos), B = self.n_dof, self.B.shape, self.B
-        out = self.knots(i0=x[: nd * npos].reshape((nd, npos), order="F") @ B.T, i1=p)
+    def _knots(self, kind: str, x: np.ndarray, p: np.ndarray) -> dict[str, np.ndarray]:
+        """Per-knot outputs of one kind at (x, p), cached for the last point asked of that kind."""
+        hit = self._cache.get(kind)
+        if hit is None or not (np.array_equal(x, hit[0]) and np.array_equal(p, hit[1])):
+            nd, npos = self.n_dof, self.B.shape[1]
+            out = self.knots[kind](i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p)
+            hit = self._cache[kind] = x.copy(), p.copy(), {k: v.copy() for k, v in out.items()}
+        return hit[2]
+
+    def value(self, x: np.ndarray, p: np.ndarray) -> float:
+        r, r_lin = self._knots("value", x, p)["o0"], self.L @ x + self.c
+        return float(r @ r + r_lin @ r_lin)
+
+    def gradient(self, x: np.ndarray, p: np.ndarray) -> tuple[float, np.ndarray]:
+        nd, (K, npos) = self.n_dof, self.B.shape
+        out = self._knots("gradient", x, p)
         r, J = out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, nd)  # J_k = d r_k / d q_k
-        H_k = out["o2"].reshape(K, -1) if self.exact else 2 * np.matmul(J.transpose(0, 2, 1), J).reshape(K, -1)
-        np.matmul(self.W, H_k, out=self._blocks[:-1].reshape(self.W.shape[0], -1))
         r_lin = self.L @ x + self.c
         g = 2 * (self.Lt @ r_lin)
-        g[: nd * npos] += 2 * (B.T @ np.einsum("kmi,km->ki", J, r)).ravel()
-        result = float(r.ravel() @ r.ravel() + r_lin @ r_lin), g, self.lin_vals + self._blocks[self.nl_index]
-        self._last = x.copy(), p.copy(), result
-        return result
+        g[: nd * npos] += 2 * (self.B.T @ np.einsum("kmi,km->ki", J, r)).ravel()
+        return float(r.ravel() @ r.ravel() + r_lin @ r_lin), g
+
+    def hessian(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """Hessian values on the pattern (rows, cols)."""
+        K = self.B.shape[0]
+        if self.exact:
+            H_k = self._knots("hessian", x, p)["o0"].reshape(K, -1)
+        else:
+            J = self._knots("gradient", x, p)["o1"].reshape(K, self.m, self.n_dof)
+            H_k = 2 * np.matmul(J.transpose(0, 2, 1), J).reshape(K, -1)
+        np.matmul(self.W, H_k, out=self._blocks[:-1].reshape(self.W.shape[0], -1))
+        return self.lin_vals + self._blocks[self.nl_index]
+
+    def evaluate(self, x: np.ndarray, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+        """(f, gradient, Hessian values)."""
+        return *self.gradient(x, p), self.hessian(x, p)
 
     def __call__(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Dense (H, gradient)."""
-        _, g, vals = self.evaluate(x, p)
+        _, g = self.gradient(x, p)
         H = np.zeros((x.size, x.size))
-        H[self.rows, self.cols] = vals
+        H[self.rows, self.cols] = self.hessian(x, p)
         return H, g

@@ -76,13 +76,13 @@ class MpcSpec(Strict):
 
 
 HARMONY_SOLVERS = ("gauss_newton", "rti")  # harmony's own Gauss-Newton SQP and real-time iteration
-QP_SOLVERS = ("daqp", "qpoases", "osqp", "proxqp", "hpipm")
 
 
 class SolverSpec(Strict):
     name: str = Field("ipopt", description="ipopt | gauss_newton | rti | knitro | any CasADi nlpsol plugin")
-    qp: Literal["daqp", "qpoases", "osqp", "proxqp", "hpipm"] = Field(
-        "daqp", description="QP solver of gauss_newton and rti")
+    qp: Literal["auto", "daqp", "qpoases", "osqp", "proxqp"] = Field(
+        "auto", description="QP solver of gauss_newton and rti; auto: daqp up to 300 variables, else osqp (rti) "
+                            "or proxqp (gauss_newton)")
     hessian: Literal["exact", "gauss_newton"] = Field(
         "exact", description="NLP plugins: exact Hessian, or the Gauss-Newton one (both on the knot structure)")
     max_iter: int = Field(30, ge=1, description="Gauss-Newton SQP iterations per solve (rti: always 1)")

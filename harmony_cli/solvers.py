@@ -109,8 +109,9 @@ class _Oracle(cs.Callback):
 
     def eval_buffer(self, arg, res):  # CasADi passes None for zero inputs and for outputs it does not want
         x, p = (np.zeros(n) if a is None else np.frombuffer(a, dtype=float) for n, a in zip(self.sizes, arg))
-        f, g, vals = self.model.evaluate(x, p)
-        for buffer, value in zip(res, [vals] if self.kind == "hess" else [f, g]):
+        values = {"f": lambda: [self.model.value(x, p)], "grad": lambda: self.model.gradient(x, p),
+                  "hess": lambda: [self.model.hessian(x, p)]}[self.kind]()
+        for buffer, value in zip(res, values):
             if buffer is not None:
                 np.frombuffer(buffer, dtype=float)[:] = value
         return 0
@@ -253,10 +254,20 @@ class GaussNewtonSolver:
         return SolveResult(x, success, status, it, time.perf_counter() - start)
 
 
+def qp_solver_for(qp: str, n_vars: int, real_time_iteration: bool) -> str:
+    """`auto`: dense active-set DAQP for small QPs (Bezier); sparse solvers for large ones (traditional K=26):
+    OSQP for one RTI step, proxqp for SQP, where OSQP's accuracy stalls the step-size convergence test."""
+    if qp != "auto":
+        return qp
+    if n_vars <= 300:
+        return "daqp"
+    return "osqp" if real_time_iteration else "proxqp"
+
+
 def make_solver(problem: Problem, spec):
     """Solver from the scenario `solver` section."""
     if spec.name == "rti":
-        return GaussNewtonSolver(problem, spec.qp, 1, spec.tol)
+        return GaussNewtonSolver(problem, qp_solver_for(spec.qp, problem.n_vars, True), 1, spec.tol)
     if spec.name == "gauss_newton":
-        return GaussNewtonSolver(problem, spec.qp, spec.max_iter, spec.tol)
+        return GaussNewtonSolver(problem, qp_solver_for(spec.qp, problem.n_vars, False), spec.max_iter, spec.tol)
     return NlpSolver(problem, spec.name, dict(spec.options), spec.hessian)

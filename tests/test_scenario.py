@@ -43,7 +43,7 @@ BASE = "name: x\nrobot: {urdf: URDF}\nreference: {type: hold}\n"
     (BASE + "mpc: {transcripton: bezier}\n", ["mpc.transcripton", "'bezier'", "transcription, integration"]),
     (BASE + "mpc: {transcription: bezeir}\n", ["mpc.transcription", "'bezeir'", "'bezier' or 'traditional'"]),
     (BASE + "solver: {name: knitro}\n", ["solver.name", "'knitro'", "ipopt", "rti"]),
-    (BASE + "solver: {qp: cplex}\n", ["solver.qp", "'cplex'", "'daqp'"]),
+    (BASE + "solver: {qp: cplex}\n", ["solver.qp", "'cplex'", "'auto'"]),
     (BASE + "sim: {physics_dt: 0.0041666667, control_dt: 0.02}\n", ["sim.control_dt", "0.02", "whole multiple"]),
     (BASE + "mpc: {knots: 1}\n", ["mpc.knots", "1", "greater than or equal to 2"]),
     ("name: x\nrobot: {urdf: URDF}\nreference: {type: circle}\n", ["reference.type", "'circle'", "'s_curve'", "'hold'"]),
