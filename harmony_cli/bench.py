@@ -1,7 +1,8 @@
 """`harmony bench`: whole-body MPC solve time, both transcriptions x K x solver modes, side by side in one run.
 
 Each configuration replays the same kinematic closed loop (the command is executed exactly) along the
-scenario's reference, one configuration at a time in this process, so the ratios compare like with like.
+scenario's reference; the configurations take turns step by step in this one process, so the ratios
+compare like with like even when the machine's speed drifts.
 """
 
 from __future__ import annotations
@@ -25,37 +26,51 @@ from harmony_cli.wholebody import WholeBodyMPC
 TRANSCRIPTIONS = ("traditional", "bezier")
 
 
-def measure(path: Path, overrides: list[str], steps: int, start: float) -> dict:
-    scenario = load_scenario(path, overrides)
-    robot = load_robot(scenario.robot, path.parent)
-    mpc = WholeBodyMPC(robot, scenario, scenario.sim.control_dt)
-    reference = HandReference(scenario.reference, robot.hand_poses_numeric(robot.home))
-    q, times, iterations, failures = robot.home.copy(), [], [], 0
-    for k in range(steps):
-        t = start + k * scenario.sim.control_dt
-        command, result = mpc.step(q, hand_reference_matrix(*reference.poses(t + mpc.knot_times)))
-        q = command.q
-        times.append(1e3 * result.solve_time)
-        iterations.append(result.iterations)
-        failures += not result.success
-    qp = getattr(mpc.solver, "qp_name", None)
-    return {"n_vars": mpc.problem.n_vars, "build_s": mpc.build_time, "failures": failures, "qp": qp,
-            "iterations": float(np.median(iterations)), **time_stats_ms(times)}
+class Replay:
+    """One configuration replaying a kinematic closed loop (the command is executed exactly)."""
+
+    def __init__(self, path: Path, overrides: list[str], start: float):
+        scenario = load_scenario(path, overrides)
+        self.robot = load_robot(scenario.robot, path.parent)
+        self.mpc = WholeBodyMPC(self.robot, scenario, scenario.sim.control_dt)
+        self.reference = HandReference(scenario.reference, self.robot.hand_poses_numeric(self.robot.home))
+        self.dt, self.start, self.q = scenario.sim.control_dt, start, self.robot.home.copy()
+        self.times, self.iterations, self.failures = [], [], 0
+
+    def step(self, k: int) -> None:
+        t = self.start + k * self.dt
+        command, result = self.mpc.step(self.q, hand_reference_matrix(*self.reference.poses(t + self.mpc.knot_times)))
+        self.q = command.q
+        self.times.append(1e3 * result.solve_time)
+        self.iterations.append(result.iterations)
+        self.failures += not result.success
+
+    def summary(self) -> dict:
+        return {"n_vars": self.mpc.problem.n_vars, "build_s": self.mpc.build_time, "failures": self.failures,
+                "qp": getattr(self.mpc.solver, "qp_name", None), "iterations": float(np.median(self.iterations)),
+                **time_stats_ms(self.times)}
 
 
 def run_bench(path: Path, knots: list[int], solvers: list[str], steps: int, start: float,
               out: Path | None = None, console: Console | None = None) -> dict:
     console = console or Console(width=160)
-    results = {}
     configs = [(s, tr, k) for s in solvers for k in knots for tr in TRANSCRIPTIONS]
     with Progress(console=console, transient=True) as bar:
-        task = bar.add_task("benchmark", total=len(configs))
+        task = bar.add_task("building", total=len(configs))
+        replays = {}
         for solver, tr, k in configs:
-            overrides = [f"mpc.transcription={tr}", f"mpc.knots={k}", f"solver.name={solver}"]
-            results[(solver, tr, k)] = measure(path, overrides, steps, start)
+            replays[(solver, tr, k)] = Replay(path, [f"mpc.transcription={tr}", f"mpc.knots={k}",
+                                                     f"solver.name={solver}"], start)
             bar.advance(task)
+        # interleaved: step k of every configuration before step k + 1, so drift in machine speed hits all alike
+        task = bar.add_task("solving", total=steps)
+        for k in range(steps):
+            for replay in replays.values():
+                replay.step(k)
+            bar.advance(task)
+    results = {config: replay.summary() for config, replay in replays.items()}
 
-    title = f"Whole-body MPC solve time [ms], {steps} steps each, one configuration at a time"
+    title = f"Whole-body MPC solve time (ms), {steps} steps each, configurations interleaved step by step"
     columns = ("solver", "transcription", "K", "vars", "median", "p95", "max", "iters", "failed",
                "trad/bezier (median)", "K26/K6 (median)")
     table = Table(title=title)
