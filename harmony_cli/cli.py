@@ -28,13 +28,16 @@ def run(scenario: Path, set: List[str] = typer.Option([], "--set", help=SET_HELP
         out: Optional[Path] = typer.Option(None, help="Run directory (default results/runs/<name>-<time>)"),
         quiet: bool = typer.Option(False, help="No progress bar")):
     """Run one scenario closed loop in PyBullet and write a run directory."""
-    from harmony_cli.run import run_scenario
+    from harmony_cli.run import RunFailed, run_scenario
     from harmony_cli.solvers import SolverUnavailable
 
     try:
         run_dir = run_scenario(scenario, set, out, progress=not quiet)
     except (ScenarioError, SolverUnavailable) as exc:
         _fail(str(exc))
+    except RunFailed as exc:
+        err.print(f"[red]run failed:[/red] {exc}", highlight=False, soft_wrap=True)
+        raise typer.Exit(1)
     summary = json.loads((run_dir / "summary.json").read_text())
     t, e = summary["solve_time_ms"], summary["tracking_error"]
     typer.echo(f"{run_dir}: {summary['status']}, {summary['decision_variables']} decision variables, "

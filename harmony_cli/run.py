@@ -25,6 +25,14 @@ from harmony_cli.scenario import load_scenario, scenario_yaml
 from harmony_cli.sim import Simulation
 from harmony_cli.wholebody import WholeBodyMPC
 
+class RunFailed(RuntimeError):
+    """A run that stopped part-way; its directory holds steps.csv, run.log and summary.json (status, error)."""
+
+    def __init__(self, run_dir: Path, reason: str):
+        super().__init__(f"{reason} (logs and status in {run_dir})")
+        self.run_dir = run_dir
+
+
 PACKAGES = ("harmony-cli", "casadi", "pyoptas", "pin", "pybullet", "numpy", "pydantic", "pandas")
 
 
@@ -108,10 +116,13 @@ def run_scenario(path: str | Path, overrides: list[str] = (), out: Path | None =
         summary["wall_time_s"] = time.perf_counter() - start
         sim.close()
         summary["status"] = "completed"
-    except BaseException as exc:  # noqa: BLE001 - record why, then re-raise
-        summary |= {"status": "failed", "error": f"{type(exc).__name__}: {exc}"}
+    except BaseException as exc:  # noqa: BLE001 - record why (interrupts too), then report
+        reason = f"{type(exc).__name__}: {str(exc).strip().splitlines()[-1] if str(exc).strip() else ''}"
+        summary |= {"status": "failed", "error": reason}
         log.write(traceback.format_exc())
-        raise
+        if not isinstance(exc, Exception):
+            raise
+        raise RunFailed(out, reason) from exc
     finally:
         steps = pd.DataFrame(rows)
         steps.to_csv(out / "steps.csv", index=False)

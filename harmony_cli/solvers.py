@@ -202,6 +202,33 @@ class NlpSolver:
                            time.perf_counter() - start)
 
 
+class SymbolicNlpSolver:
+    """For plugins that differentiate the problem themselves (e.g. blocksqp): CasADi's AD on the full SX problem,
+    fixed variables as lbx == ubx. Slower than NlpSolver; used only when a plugin rejects its structured oracles."""
+
+    def __init__(self, problem: Problem, plugin: str, options: dict):
+        nlp = {"x": problem.x, "p": problem.p, "f": sum(problem.terms.values()),
+               "g": cs.mtimes(cs.DM(problem.A), problem.x)}
+        try:
+            self.solver = cs.nlpsol("mpc", plugin, nlp, {"print_time": False} | options)
+        except RuntimeError as exc:
+            raise SolverUnavailable(f"solver.name: {plugin!r} failed to initialise: "
+                                    f"{str(exc).splitlines()[-1]}") from None
+        self.problem = problem
+        self.lam_x, self.lam_g = np.zeros(problem.n_vars), np.zeros(problem.A.shape[0])
+
+    def solve(self, x0, lbx, ubx, p) -> SolveResult:
+        start = time.perf_counter()
+        out = self.solver(x0=x0, lbx=lbx, ubx=ubx, lbg=self.problem.lb, ubg=self.problem.ub, p=p,
+                          lam_x0=self.lam_x, lam_g0=self.lam_g)
+        elapsed = time.perf_counter() - start
+        stats = self.solver.stats()
+        if stats["success"]:
+            self.lam_x, self.lam_g = np.array(out["lam_x"]).ravel(), np.array(out["lam_g"]).ravel()
+        return SolveResult(np.array(out["x"]).ravel(), bool(stats["success"]), str(stats["return_status"]),
+                           int(stats.get("iter_count", -1)), elapsed)
+
+
 class GaussNewtonSolver:
     """Gauss-Newton SQP with structured Hessians and a QP per iteration over the free variables (see Reduction);
     `max_iter=1` is real-time iteration."""
@@ -270,4 +297,9 @@ def make_solver(problem: Problem, spec):
         return GaussNewtonSolver(problem, qp_solver_for(spec.qp, problem.n_vars, True), 1, spec.tol)
     if spec.name == "gauss_newton":
         return GaussNewtonSolver(problem, qp_solver_for(spec.qp, problem.n_vars, False), spec.max_iter, spec.tol)
-    return NlpSolver(problem, spec.name, dict(spec.options), spec.hessian)
+    try:
+        return NlpSolver(problem, spec.name, dict(spec.options), spec.hessian)
+    except SolverUnavailable:
+        if spec.name not in available_nlp_plugins():
+            raise
+        return SymbolicNlpSolver(problem, spec.name, dict(spec.options))

@@ -8,7 +8,7 @@ from harmony_cli.loop import hand_reference_matrix
 from harmony_cli.reference import HandReference
 from harmony_cli.scenario import load_scenario
 from harmony_cli.knot_derivatives import KnotDerivatives
-from harmony_cli.solvers import make_solver
+from harmony_cli.solvers import SymbolicNlpSolver, make_solver
 from harmony_cli.transcription import TraditionalTranscription, make_transcription
 from harmony_cli.wholebody import WholeBodyMPC, build_problem
 
@@ -104,6 +104,14 @@ def test_ipopt_and_gauss_newton_sqp_reach_the_same_optimum(eva):
                              "solver.max_iter=100")
     assert ipopt.success and gn.success
     np.testing.assert_allclose(gn.x, ipopt.x, atol=2e-4)
+    # CasADi's own AD on the full symbolic problem (the path for plugins that reject structured oracles)
+    symbolic = SymbolicNlpSolver(mpc.problem, "ipopt", {"ipopt.print_level": 0, "ipopt.sb": "yes"})
+    lbx, ubx = mpc.transcription.bounds(eva.lower, eva.upper, eva.velocity_limit, eva.home,
+                                        list(eva.pinned_joints), eva.home[list(eva.pinned_joints)])
+    p = _reference(eva, load_scenario(TABLE1, ["mpc.knots=6"]), mpc.transcription, t=6.0)
+    reference = symbolic.solve(np.clip(np.tile(eva.home, 6), lbx, ubx), lbx, ubx, p)
+    assert reference.success
+    np.testing.assert_allclose(ipopt.x, reference.x, atol=2e-4)
 
 
 def test_solution_starts_at_the_measured_state_with_the_head_pinned(eva):
