@@ -34,7 +34,8 @@ def run_loop(mpc: WholeBodyMPC, sim: Simulation, reference: HandReference, durat
         positions, rotations = reference.poses(t + mpc.knot_times)
         p = hand_reference_matrix(positions, rotations)
         command, result = mpc.step(obs.q, p)
-        row = {"step": step, "t": t, "solve_ms": 1e3 * result.solve_time, "status": result.status,
+        row = {"step": step, "t": t, "solve_ms": 1e3 * result.solve_time, "build_ms": 1e3 * result.build_time,
+               "status": result.status,
                "success": result.success, "held_last_plan": command.held, "iterations": result.iterations}
         row |= {f"cost_{k}": v for k, v in mpc.problem.evaluate_terms(result.x, p.ravel(order="F")).items()}
         for h, hand in enumerate(robot.hand_names):
