@@ -170,11 +170,13 @@ class NlpSolver:
             place = lambda i: cs.DM(sp.csc_matrix((np.ones(i.size), (i, np.arange(i.size))), (n, i.size)))
             x, p = cs.mtimes(place(idx), z) + cs.mtimes(place(np.flatnonzero(~free)), pe[n_p:]), pe[:n_p]
             A = cs.DM(r.A_free)
-            f, g, grad = self.oracle[0](x, p), cs.mtimes(A, z), self.oracle[1](x, p)[1][idx]
+            f, g, (f_grad, grad) = self.oracle[0](x, p), cs.mtimes(A, z), self.oracle[1](x, p)
+            grad = grad[idx]  # f_grad: f from the same callback as the gradient (no second call for f)
             triu = cs.triu if self.plugin in ("ipopt", "bonmin", "knitro") else (lambda h: h)  # their convention
             derivatives = {  # whichever of these the plugin takes
-                "grad_f": cs.Function("grad_f", [z, pe], [f, grad]), "jac_g": cs.Function("jac_g", [z, pe], [g, A]),
-                "jac_fg": cs.Function("jac_fg", [z, pe], [f, grad, g, A]),
+                "grad_f": cs.Function("grad_f", [z, pe], [f_grad, grad]),
+                "jac_g": cs.Function("jac_g", [z, pe], [g, A]),
+                "jac_fg": cs.Function("jac_fg", [z, pe], [f_grad, grad, g, A]),
                 "hess_lag": cs.Function("hess_lag", [z, pe, lam_f, cs.MX.sym("lam_g", r.a.size)],
                                         [triu(lam_f * self.oracle[2](x, p)[idx, idx])])}
             options = self.options | {k: v for k, v in derivatives.items() if k in cs.nlpsol_options(self.plugin)}
