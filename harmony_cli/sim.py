@@ -88,12 +88,5 @@ class Simulation:
             self.client.stepSimulation()
         self.time += substeps * self.spec.physics_dt
 
-    def render(self, width: int = 640, height: int = 480, target=(1.5, 0.0, 0.8)) -> np.ndarray:
-        """RGB frame from TinyRenderer (headless)."""
-        view = self.client.computeViewMatrixFromYawPitchRoll(target, 4.5, 45, -35, 0, 2)
-        proj = self.client.computeProjectionMatrixFOV(60, width / height, 0.1, 50)
-        _, _, rgb, _, _ = self.client.getCameraImage(width, height, view, proj, renderer=pybullet.ER_TINY_RENDERER)
-        return np.reshape(rgb, (height, width, 4))[..., :3]
-
     def close(self) -> None:
         self.client.disconnect()

@@ -50,14 +50,12 @@ class Problem:
     A: np.ndarray  # linear rows lb <= A x <= ub (constant)
     lb: np.ndarray
     ub: np.ndarray
-    row_names: dict[str, slice]
     # Gauss-Newton structure: q_knots = X_pos @ position_basis.T with X_pos = x[:n_dof * n_pos] (column-major)
     task_residual: cs.Function  # (q[n_dof], ref[m]) -> r[m]
     position_basis: np.ndarray  # K x n_pos
     ref_shape: tuple[int, int]  # p = vec(ref) with ref m x K
     L: np.ndarray  # linear residual r_lin = L x + c
     c: np.ndarray
-    build_time: float = 0.0
     term_values: cs.Function = field(init=False)
 
     def __post_init__(self):
@@ -71,20 +69,18 @@ class Problem:
         return {k: float(v) for k, v in zip(self.terms, self.term_values(x, p))}
 
 
-def linear_rows(x: cs.SX, named: dict[str, tuple]) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+def linear_rows(x: cs.SX, named: dict[str, tuple]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Stack named (expr, lb, ub) rows that must be affine in x into (A, lb, ub) with lb - A(0) offsets."""
-    A, lb, ub, names, start = [], [], [], {}, 0
+    A, lb, ub = [], [], []
     for name, (expr, lo, hi) in named.items():
         if not cs.is_linear(expr, x):
             raise ValueError(f"constraint {name!r} is not linear in the decision variables")
         jac = cs.Function("row_jacobian", [x], [cs.jacobian(expr, x), expr])
         a, offset = (np.array(v) for v in jac(np.zeros(x.numel())))
         A.append(a), lb.append(np.asarray(lo) - offset.ravel()), ub.append(np.asarray(hi) - offset.ravel())
-        names[name] = slice(start, start + a.shape[0])
-        start += a.shape[0]
     if not A:
-        return np.zeros((0, x.numel())), np.zeros(0), np.zeros(0), {}
-    return np.vstack(A), np.concatenate(lb), np.concatenate(ub), names
+        return np.zeros((0, x.numel())), np.zeros(0), np.zeros(0)
+    return np.vstack(A), np.concatenate(lb), np.concatenate(ub)
 
 
 class _Oracle(cs.Callback):

@@ -38,7 +38,6 @@ def task_residual_function(robot: Robot, weights, n_knots: int) -> cs.Function:
 
 def build_problem(robot: Robot, transcription, weights, chest_joints, mirrored_joints) -> Problem:
     """The MPC-W problem from one spec for either transcription, modelled with OpTaS's builder."""
-    start = time.perf_counter()
     K, H = transcription.n_knots, len(robot.end_effectors)
     builder = optas.OptimizationBuilder(T=1)
     parts = [builder.add_decision_variables(name, *shape) for name, shape in transcription.variable_shapes.items()]
@@ -46,7 +45,8 @@ def build_problem(robot: Robot, transcription, weights, chest_joints, mirrored_j
     ref = builder.add_parameter("hand_ref", 12 * H, K)
     q, dq, ddq = transcription.knots(x)
 
-    residual = task_residual_function(robot, weights, K).map(K)(q, ref)  # 12H x K
+    task_residual = task_residual_function(robot, weights, K)
+    residual = task_residual.map(K)(q, ref)  # 12H x K
     for h, hand in enumerate(robot.hand_names):
         builder.add_cost_term(f"position_{hand}", cs.sumsqr(residual[12 * h: 12 * h + 3, :]))
         builder.add_cost_term(f"orientation_{hand}", cs.sumsqr(residual[12 * h + 3: 12 * h + 12, :]))
@@ -69,12 +69,11 @@ def build_problem(robot: Robot, transcription, weights, chest_joints, mirrored_j
 
     r_lin = cs.vertcat(*[cs.vec(r) for r in linear.values()])
     L, c = (np.array(v) for v in cs.Function("lin", [x], [cs.jacobian(r_lin, x), r_lin])(np.zeros(x.numel())))
-    A, lb, ub, names = linear_rows(x, transcription.linear_constraints(x, robot.velocity_limit))
+    A, lb, ub = linear_rows(x, transcription.linear_constraints(x, robot.velocity_limit))
     return Problem(
         x=x, p=optimization.parameters.vec(), terms={k: optimization.cost_terms[k] for k in optimization.cost_terms},
-        A=A, lb=lb, ub=ub, row_names=names, task_residual=task_residual_function(robot, weights, K),
-        position_basis=transcription.position_basis, ref_shape=(12 * H, K), L=L, c=c.ravel(),
-        build_time=time.perf_counter() - start)
+        A=A, lb=lb, ub=ub, task_residual=task_residual,
+        position_basis=transcription.position_basis, ref_shape=(12 * H, K), L=L, c=c.ravel())
 
 
 class WholeBodyMPC:
