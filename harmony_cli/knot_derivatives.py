@@ -24,21 +24,25 @@ if TYPE_CHECKING:
 CACHE_DIR = Path(os.environ.get("HARMONY_CACHE", Path.home() / ".cache" / "harmony"))
 
 
+def shared_library(name: str, source: str) -> Path:
+    """C source built with gcc -O1 (1-3 s once) and cached on disk by content; raises if gcc is missing."""
+    library = CACHE_DIR / f"{name}_{hashlib.sha256(source.encode()).hexdigest()[:20]}.so"
+    if not library.exists():
+        CACHE_DIR.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryDirectory(dir=CACHE_DIR) as tmp:
+            Path(tmp, "f.c").write_text(source)
+            subprocess.run(["gcc", "-O1", "-shared", "-fPIC", "f.c", "-o", "f.so"], cwd=tmp, check=True,
+                           capture_output=True, timeout=120)
+            os.replace(Path(tmp, "f.so"), library)  # atomic: concurrent processes never load half a file
+    return library
+
+
 def compiled(f: cs.Function) -> cs.Function:
-    """f as C (gcc -O1, 1-3 s once, cached on disk by content): ~10x faster than CasADi's VM, used without gcc."""
+    """f as C: ~10x faster than CasADi's VM; f itself where gcc is missing."""
     cg = cs.CodeGenerator(f.name(), {"with_header": False})
     cg.add(f)
-    source = cg.dump()
-    library = CACHE_DIR / f"{f.name()}_{hashlib.sha256(source.encode()).hexdigest()[:20]}.so"
     try:
-        if not library.exists():
-            CACHE_DIR.mkdir(parents=True, exist_ok=True)
-            with tempfile.TemporaryDirectory(dir=CACHE_DIR) as tmp:
-                Path(tmp, "f.c").write_text(source)
-                subprocess.run(["gcc", "-O1", "-shared", "-fPIC", "f.c", "-o", "f.so"], cwd=tmp, check=True,
-                               capture_output=True, timeout=120)
-                os.replace(Path(tmp, "f.so"), library)  # atomic: concurrent processes never load half a file
-        return cs.external(f.name(), str(library))
+        return cs.external(f.name(), str(shared_library(f.name(), cg.dump())))
     except (OSError, subprocess.SubprocessError, RuntimeError):
         return f
 
@@ -82,26 +86,33 @@ class KnotDerivatives:
         knot_maps = {"value": [r], "gradient": [r, cs.densify(cs.jacobian(r, q).T)],
                      "hessian": [cs.densify(cs.hessian(cs.sumsqr(r), q)[0])]}
         # line-search trial points need f only, gradients r and J; the exact per-knot Hessians cost the most
-        self.knots = {kind: Buffered(compiled(cs.Function(f"harmony_{kind}", [q, ref], outs).map(K)))
-                      for kind, outs in knot_maps.items() if kind != "hessian" or exact}
+        self.knot_functions = {kind: cs.Function(f"harmony_{kind}", [q, ref], outs).map(K)
+                               for kind, outs in knot_maps.items() if kind != "hessian" or exact}
+        self.knots = {kind: Buffered(compiled(f)) for kind, f in self.knot_functions.items()}
         self._cache = {}
         self.L, self.Lt, self.c = sp.csr_matrix(problem.L), sp.csr_matrix(problem.L.T), problem.c
-        # block (a, b) of the position Hessian is sum_k B[k, a] B[k, b] H_k: keep the nonzero (a, b) pairs
-        outer = np.einsum("ka,kb->kab", self.B, self.B).reshape(K, npos * npos)
-        pairs = np.flatnonzero(np.abs(outer).max(axis=0) > 0)
-        self.W, i = outer[:, pairs].T, np.arange(nd)
-        nl_rows = ((pairs // npos * nd)[:, None, None] + i[:, None] + 0 * i).ravel()  # (pair, i, j) order
-        nl_cols = ((pairs % npos * nd)[:, None, None] + 0 * i[:, None] + i).ravel()
+        # block (a, b) of the position Hessian is sum_k B[k, a] B[k, b] H_k; (b, a) is the same matrix (H_k
+        # symmetric), so one block per unordered nonzero pair
+        outer = np.einsum("ka,kb->kab", self.B, self.B)
+        a, b = np.nonzero(np.abs(outer).max(axis=0) > 0)
+        upper, i = a <= b, np.arange(nd)
+        self.W = outer[:, a[upper], b[upper]].T
+        block = np.zeros((npos, npos), dtype=int)
+        block[a[upper], b[upper]] = block[b[upper], a[upper]] = np.arange(upper.sum())
+        nl_rows = ((a * nd)[:, None, None] + i[:, None] + 0 * i).ravel()  # (pair, i, j) order
+        nl_cols = ((b * nd)[:, None, None] + 0 * i[:, None] + i).ravel()
+        nl_entry = ((block[a, b] * nd * nd)[:, None, None] + i[:, None] * nd + i).ravel()
         H_lin = (2 * self.Lt @ self.L).tocoo()
         rows, cols = np.r_[nl_rows, H_lin.row, np.arange(n)], np.r_[nl_cols, H_lin.col, np.arange(n)]
         pattern = sp.csc_matrix((np.ones(rows.size), (rows, cols)), (n, n))
         pattern.sort_indices()
         self.rows, self.cols = pattern.indices, np.repeat(np.arange(n), np.diff(pattern.indptr))
         self.lin_vals = np.asarray(H_lin.tocsr()[self.rows, self.cols]).ravel()
-        lookup = np.full((n, n), nl_rows.size)
-        lookup[nl_rows, nl_cols] = np.arange(nl_rows.size)
+        n_blocks = self.W.shape[0] * nd * nd
+        lookup = np.full((n, n), n_blocks)
+        lookup[nl_rows, nl_cols] = nl_entry
         self.nl_index = lookup[self.rows, self.cols]  # into the flat knot blocks, then a trailing zero
-        self._blocks = np.zeros(nl_rows.size + 1)
+        self._blocks = np.zeros(n_blocks + 1)
 
     def _knots(self, kind: str, x: np.ndarray, p: np.ndarray) -> dict[str, np.ndarray]:
         """Per-knot outputs of one kind at (x, p), cached for the last point asked of that kind."""

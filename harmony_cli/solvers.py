@@ -16,6 +16,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from harmony_cli.knot_derivatives import Buffered, KnotDerivatives
+from harmony_cli.native_oracle import native_oracle
 
 NLP_CANDIDATES = ("ipopt", "sqpmethod", "feasiblesqpmethod", "blocksqp", "fatrop", "bonmin", "uno", "knitro",
                   "snopt", "worhp", "madnlp")
@@ -143,17 +144,21 @@ class NlpSolver:
             raise SolverUnavailable(f"solver.name: {plugin!r} is not available here{hint}; available NLP plugins: "
                                     f"{', '.join(available)}; harmony modes: gauss_newton, rti")
         defaults = {"print_time": False, "record_time": True, "calc_lam_p": False}
-        if plugin == "ipopt":  # adaptive mu: 3 instead of 5-12 warm-started iterations to the same optimum
+        if plugin == "ipopt":  # warm-started: a small initial barrier takes 3 iterations, not 5-12, to the optimum;
+            # MUMPS's scaling (MC64) costs ~2 ms per solve and our KKT systems are well scaled (make bench)
             defaults |= {"ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.warm_start_init_point": "yes",
-                         "ipopt.mu_strategy": "adaptive", "ipopt.warm_start_bound_push": 1e-6,
-                         "ipopt.warm_start_mult_bound_push": 1e-6}
+                         "ipopt.mu_init": 1e-6, "ipopt.warm_start_bound_push": 1e-6,
+                         "ipopt.warm_start_mult_bound_push": 1e-6, "ipopt.mumps_permuting_scaling": 0,
+                         "ipopt.mumps_scaling": 0}
         elif plugin in ("sqpmethod", "feasiblesqpmethod"):
             defaults |= {"print_header": False, "print_iteration": False, "print_status": False,
                          "qpsol": "qrqp", "qpsol_options": {"print_iter": False, "print_header": False}}
         self.problem, self.plugin, self.options = problem, plugin, defaults | options
         model = KnotDerivatives(problem, exact=hessian == "exact")
-        self.oracle = [_Oracle(model, kind, problem.p.numel()) for kind in ("f", "grad", "hess")]
-        self.oracle[0].grad = self.oracle[1]
+        self.native = native_oracle(model, problem.p.numel())
+        if self.native is None:  # no C compiler: the same derivatives through Python callbacks (~3 ms per solve)
+            self.oracle = [_Oracle(model, kind, problem.p.numel()) for kind in ("f", "grad", "hess")]
+            self.oracle[0].grad = self.oracle[1]
         self.lam_x, self.lam_g = np.zeros(problem.n_vars), np.zeros(problem.A.shape[0])
         self._solvers = {}
         self._solver(np.ones(problem.n_vars, dtype=bool))  # checks the options now, not at the first solve
@@ -166,15 +171,19 @@ class NlpSolver:
             place = lambda i: cs.DM(sp.csc_matrix((np.ones(i.size), (i, np.arange(i.size))), (n, i.size)))
             x, p = cs.mtimes(place(idx), z) + cs.mtimes(place(np.flatnonzero(~free)), pe[n_p:]), pe[:n_p]
             A = cs.DM(r.A_free)
-            f, g, (f_grad, grad) = self.oracle[0](x, p), cs.mtimes(A, z), self.oracle[1](x, p)
-            grad = grad[idx]  # f_grad: f from the same callback as the gradient (no second call for f)
+            if self.native is not None:  # one call node; CasADi asks each use for only the outputs it needs
+                f, grad, hess = self.native(x, p)
+                f_grad = f
+            else:  # f_grad: f from the same callback as the gradient (no second call for f)
+                f, (f_grad, grad), hess = self.oracle[0](x, p), self.oracle[1](x, p), self.oracle[2](x, p)
+            g, grad = cs.mtimes(A, z), grad[idx]
             triu = cs.triu if self.plugin in ("ipopt", "bonmin", "knitro") else (lambda h: h)  # their convention
             derivatives = {  # whichever of these the plugin takes
                 "grad_f": cs.Function("grad_f", [z, pe], [f_grad, grad]),
                 "jac_g": cs.Function("jac_g", [z, pe], [g, A]),
                 "jac_fg": cs.Function("jac_fg", [z, pe], [f_grad, grad, g, A]),
                 "hess_lag": cs.Function("hess_lag", [z, pe, lam_f, cs.MX.sym("lam_g", r.a.size)],
-                                        [triu(lam_f * self.oracle[2](x, p)[idx, idx])])}
+                                        [triu(lam_f * hess[idx, idx])])}
             options = self.options | {k: v for k, v in derivatives.items() if k in cs.nlpsol_options(self.plugin)}
             try:
                 solver = Buffered(cs.nlpsol("mpc", self.plugin, {"x": z, "p": pe, "f": f, "g": g}, options))

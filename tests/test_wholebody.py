@@ -7,7 +7,9 @@ import pytest
 from harmony_cli.loop import hand_reference_matrix
 from harmony_cli.reference import HandReference
 from harmony_cli.scenario import load_scenario
+from harmony_cli import solvers
 from harmony_cli.knot_derivatives import KnotDerivatives
+from harmony_cli.native_oracle import native_oracle
 from harmony_cli.solvers import SymbolicNlpSolver, make_solver
 from harmony_cli.transcription import TraditionalTranscription, make_transcription
 from harmony_cli.wholebody import WholeBodyMPC, build_problem
@@ -74,6 +76,31 @@ def test_structured_exact_hessian_equals_casadi_exact_hessian_anywhere(eva, rng,
     np.testing.assert_allclose(H, H_exact, atol=1e-9)
 
 
+@pytest.mark.parametrize("transcription, exact", [("bezier", True), ("bezier", False), ("traditional", True)])
+def test_native_oracle_equals_the_numpy_assembly_and_its_reverse_mode_is_the_gradient(eva, rng, transcription, exact):
+    scenario, tr, problem = _problem(eva, f"mpc.transcription={transcription}", "mpc.knots=26")
+    p = _reference(eva, scenario, tr)
+    x = np.tile(eva.home, tr.n_vars // eva.n_dof) + 0.2 * rng.standard_normal(tr.n_vars)
+    model = KnotDerivatives(problem, exact=exact)
+    oracle = native_oracle(model, p.size)
+    assert oracle is not None, "gcc is needed for the native oracle"
+    f, g, h = model.evaluate(x, p)
+    f_c, g_c, h_c = (np.array(v.nonzeros()) for v in oracle(x, p))
+    np.testing.assert_allclose(f_c, f, rtol=1e-12)
+    np.testing.assert_allclose(g_c, g, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(h_c, h, rtol=1e-10, atol=1e-12)
+    # reverse mode: seeds on f and on the gradient give adj_f g + H adj_g; p-derivatives are NaN, not zero
+    xs, ps = cs.MX.sym("x", x.size), cs.MX.sym("p", p.size)
+    out = oracle(xs, ps)
+    seed = rng.standard_normal(x.size)
+    adj = cs.Function("adj", [xs, ps], [cs.gradient(3.0 * out[0] + cs.dot(seed, out[1]), cs.vertcat(xs, ps))])
+    sens = np.array(adj(x, p)).ravel()
+    H = np.zeros((x.size, x.size))
+    H[model.rows, model.cols] = h
+    np.testing.assert_allclose(sens[:x.size], 3.0 * g + H @ seed, rtol=1e-10, atol=1e-10)
+    assert np.isnan(sens[x.size:]).all()
+
+
 def test_bezier_trajectory_satisfies_trapezoidal_integration_better_than_euler(eva, rng):
     """Bezier vs collocation: a smooth Bezier curve sampled at K knots nearly satisfies the collocation rows."""
     scenario, bez, _ = _problem(eva, "mpc.knots=26")
@@ -112,6 +139,15 @@ def test_ipopt_and_gauss_newton_sqp_reach_the_same_optimum(eva):
     reference = symbolic.solve(np.clip(np.tile(eva.home, 6), lbx, ubx), lbx, ubx, p)
     assert reference.success
     np.testing.assert_allclose(ipopt.x, reference.x, atol=2e-4)
+
+
+def test_python_callback_oracles_reach_the_native_oracles_optimum(eva, monkeypatch):
+    """Without a C compiler the same derivatives go through Python callbacks: same optimum, only slower."""
+    _, _, native = _solve_once(eva, "mpc.knots=6", "solver.name=ipopt")
+    monkeypatch.setattr(solvers, "native_oracle", lambda *args: None)
+    mpc, _, fallback = _solve_once(eva, "mpc.knots=6", "solver.name=ipopt")
+    assert mpc.solver.native is None and native.success and fallback.success
+    np.testing.assert_allclose(fallback.x, native.x, atol=1e-8)
 
 
 def test_solution_starts_at_the_measured_state_with_the_head_pinned(eva):
