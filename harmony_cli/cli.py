@@ -26,13 +26,18 @@ def _fail(message: str) -> None:
 @app.command()
 def run(scenario: Path, set: List[str] = typer.Option([], "--set", help=SET_HELP),
         out: Optional[Path] = typer.Option(None, help="Run directory (default results/runs/<name>-<time>)"),
-        quiet: bool = typer.Option(False, help="No progress bar")):
+        quiet: bool = typer.Option(False, help="No progress bar"),
+        video: bool = typer.Option(False, "--video", help="Also record video.mp4 in the run directory (headless)"),
+        video_path: Optional[Path] = typer.Option(None, "--video-file", help="Record to this .mp4 or .gif instead")):
     """Run one scenario closed loop in PyBullet and write a run directory."""
     from harmony_cli.run import RunFailed, run_scenario
     from harmony_cli.solvers import SolverUnavailable
 
     try:
-        run_dir = run_scenario(scenario, set, out, progress=not quiet)
+        if video_path is not None and video_path.suffix.lower() not in (".mp4", ".gif"):
+            _fail(f"--video-file: {str(video_path)!r} must end in .mp4 or .gif")
+        target = video_path or (True if video else None)
+        run_dir = run_scenario(scenario, set, out, progress=not quiet, video=target)
     except (ScenarioError, SolverUnavailable) as exc:
         _fail(str(exc))
     except RunFailed as exc:
@@ -43,6 +48,14 @@ def run(scenario: Path, set: List[str] = typer.Option([], "--set", help=SET_HELP
     typer.echo(f"{run_dir}: {summary['status']}, {summary['decision_variables']} decision variables, "
                f"solve median {t['median']:.2f} / p95 {t['p95']:.2f} / max {t['max']:.2f} ms, "
                f"max tracking error {100 * e['max_m']:.2f} cm, failed solves {summary['failed_solves']}")
+    if "task" in summary:
+        task, loop = summary["task"], summary["task"]["loop_time_ms"]
+        clear = min((v for c in task["min_clearance_m"].values() for v in c.values()), default=float("inf"))
+        typer.echo(f"task: success {task.get('success')}, box goal error {task.get('box_goal_error_m')}, dropped "
+                   f"{task.get('box_dropped')}, min clearance {clear:.3f} m, loop median {loop['median']:.2f} / "
+                   f"p95 {loop['p95']:.2f} / max {loop['max']:.2f} ms, planner failures {task['planner_failures']}")
+    if "video" in summary:
+        typer.echo(f"video: {summary['video']}")
 
 
 @app.command()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from typing import Callable
 
 import numpy as np
@@ -9,6 +10,10 @@ import numpy as np
 from harmony_cli.reference import HandReference
 from harmony_cli.sim import Simulation
 from harmony_cli.wholebody import WholeBodyMPC
+
+
+# (t, observation, knot times) -> positions (K, hands, 3), rotations (K, hands, 3, 3), extra log fields
+References = Callable[[float, object, np.ndarray], tuple[np.ndarray, np.ndarray, dict]]
 
 
 def hand_reference_matrix(positions: np.ndarray, rotations: np.ndarray) -> np.ndarray:
@@ -23,31 +28,47 @@ def rotation_error_deg(r: np.ndarray, r_ref: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
 
 
-def run_loop(mpc: WholeBodyMPC, sim: Simulation, reference: HandReference, duration: float, control_dt: float,
+def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duration: float, control_dt: float,
              substeps: int, record: Callable[[dict], None], on_step: Callable[[int, int], None] = lambda i, n: None):
-    """Run the whole scenario; every step's record goes to `record` as soon as it exists (nothing is lost)."""
+    """Run the whole scenario; every step's record goes to `record` as soon as it exists (nothing is lost).
+
+    `loop_ms` is the wall time from the observation to the command: references (planner) + whole-body MPC."""
     robot = mpc.robot
     n_steps = int(round(duration / control_dt))
     for step in range(n_steps):
         t = step * control_dt
         obs = sim.observe()  # the MPC always starts from the measured state
-        positions, rotations = reference.poses(t + mpc.knot_times)
+        start = time.perf_counter()
+        positions, rotations, extra = references(t, obs, mpc.knot_times)
         p = hand_reference_matrix(positions, rotations)
         command, result = mpc.step(obs.q, p)
+        loop_ms = 1e3 * (time.perf_counter() - start)
         row = {"step": step, "t": t, "solve_ms": 1e3 * result.solve_time, "build_ms": 1e3 * result.build_time,
-               "status": result.status,
+               "loop_ms": loop_ms, "status": result.status,
                "success": result.success, "held_last_plan": command.held, "iterations": result.iterations}
-        row |= {f"cost_{k}": v for k, v in mpc.problem.evaluate_terms(result.x, p.ravel(order="F")).items()}
+        reference_now = extra.pop("reference_now", positions[0])
+        row |= extra
+        row |= {f"cost_{k}": v for k, v in mpc.problem.evaluate_terms(result.x, mpc.params).items()}
         for h, hand in enumerate(robot.hand_names):
-            err = obs.hand_positions[h] - positions[0, h]
-            row |= {f"{hand}_ref_{a}": v for a, v in zip("xyz", positions[0, h])}
+            err = obs.hand_positions[h] - reference_now[h]
+            row |= {f"{hand}_ref_{a}": v for a, v in zip("xyz", reference_now[h])}
             row |= {f"{hand}_meas_{a}": v for a, v in zip("xyz", obs.hand_positions[h])}
             row[f"{hand}_error_m"] = float(np.linalg.norm(err))
             row[f"{hand}_rot_error_deg"] = rotation_error_deg(obs.hand_rotations[h], rotations[0, h])
         row |= {f"q_{j}": v for j, v in zip(robot.joint_names, obs.q)}
         row |= {f"cmd_q_{j}": v for j, v in zip(robot.joint_names, command.q)}
         row |= {f"cmd_qd_{j}": v for j, v in zip(robot.joint_names, command.qd)}
+        if sim.world is not None:  # the true distances, measured by PyBullet
+            for name in sim.world.obstacles:
+                row[f"clearance_robot_{name}_m"] = sim.world.clearance(sim.body, name)
+                if sim.world.box is not None:
+                    row[f"clearance_box_{name}_m"] = sim.world.clearance(sim.world.box, name)
         record(row)
         sim.apply(command.q, command.qd)
         sim.step(substeps)
         on_step(step + 1, n_steps)
+
+
+def trajectory_references(reference: HandReference) -> References:
+    """A fixed hand trajectory (Table 1) as the loop's reference source."""
+    return lambda t, obs, knot_times: (*reference.poses(t + knot_times), {})

@@ -31,3 +31,44 @@ def summarise(steps: pd.DataFrame, hands: list[str]) -> dict:
         "iterations_median": float(steps["iterations"].median()),
         "tracking_error": tracking_error(steps, hands),
     }
+
+
+GOAL_TOLERANCE = 0.05  # [m] box centre from its goal
+UPRIGHT_DEG = 10.0
+REACHED = 0.02  # [m] both hands this close to their phase goal: the phase is complete
+
+
+def task_outcome(steps: pd.DataFrame, scenario, hands: list[str]) -> dict:
+    """Success (box on its goal within 5 cm, upright, never dropped), clearances, phase completion, loop time."""
+    out: dict = {"loop_time_ms": time_stats_ms(steps["loop_ms"]),
+                 "planner_time_ms": time_stats_ms(steps["planner_ms"].dropna()),
+                 "planner_failures": int((steps["planner_success"].dropna() == False).sum())}  # noqa: E712
+    yaw = steps[f"q_{scenario.robot.base_joints[2]}"]
+    out["base_yaw_range_deg"] = float(np.degrees(yaw.max() - yaw.min()))
+    clearances = {}
+    for column in steps.columns:
+        if column.startswith("clearance_"):
+            _, who, *name, _ = column.split("_")
+            clearances.setdefault("_".join(name), {})[who] = float(steps[column].min())
+    out["min_clearance_m"] = clearances
+    phases = []
+    goal_error = steps[[f"{h}_goal_error_m" for h in hands]].max(axis=1)
+    for index, phase in enumerate(scenario.task.phases):
+        rows = steps["phase_index"] == index
+        reached = steps["t"][rows & (goal_error < REACHED)]
+        start = float(steps["t"][rows].min()) if rows.any() else None
+        phases.append({"name": phase.name, "start_s": start,
+                       "completed_s": float(reached.min()) if len(reached) else None,
+                       "final_goal_error_m": float(goal_error[rows].iloc[-1]) if rows.any() else None})
+    out["phases"] = phases
+    box = scenario.world.box
+    if box is not None and "box_x" in steps:
+        final = steps[["box_x", "box_y", "box_z"]].iloc[-1].to_numpy()
+        dropped = bool(steps["dropped"].any())
+        error = float(np.linalg.norm(final - np.asarray(box.goal))) if box.goal else None
+        upright = float(steps["box_tilt_deg"].iloc[-1]) < UPRIGHT_DEG
+        clear = all(v > 0 for c in clearances.values() for v in c.values())
+        out |= {"box_final": final.tolist(), "box_goal_error_m": error, "box_upright": upright,
+                "box_dropped": dropped, "clear_of_obstacles": clear,
+                "success": bool(error is not None and error <= GOAL_TOLERANCE and upright and not dropped and clear)}
+    return out

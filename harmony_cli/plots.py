@@ -62,3 +62,44 @@ def plot_comparison(out: Path, runs: dict[str, pd.DataFrame], hands: list[str], 
     ax.legend(fontsize=8)
     _save(fig, paths[1])
     return paths
+
+
+def plot_top_down(out: Path, steps: pd.DataFrame, scenario, hands: list[str], joints: list[str]) -> None:
+    """top_down.png: base footprint outlines every 2 s, base and hand paths, tables, obstacles, box start/goal."""
+    import numpy as np
+    from matplotlib.patches import Circle, Polygon
+
+    from harmony_cli.world import obstacle_shape, table_shape
+
+    def outline(shape, **style):
+        if shape.kind in ("cylinder", "sphere"):
+            return Circle(shape.centre[:2], shape.half[0], **style)
+        c, s = np.cos(shape.yaw), np.sin(shape.yaw)
+        corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * shape.half[:2]
+        return Polygon(shape.centre[:2] + corners @ np.array([[c, s], [-s, c]]), closed=True, **style)
+
+    fig, ax = plt.subplots(figsize=(8, 6))
+    for t in scenario.world.tables:
+        ax.add_patch(outline(table_shape(t), fc="tan", ec="saddlebrown", alpha=0.6))
+    for o in scenario.world.obstacles:
+        shape = obstacle_shape(o)
+        ax.add_patch(outline(shape, fc="indianred", ec="darkred", alpha=0.7))
+        ax.annotate(o.name, shape.centre[:2], ha="center", fontsize=7)
+    bx, by, byaw = (steps[f"q_{j}"].to_numpy() for j in scenario.robot.base_joints)
+    ax.plot(bx, by, color="grey", lw=1.5, label="base")
+    length, width = 1.007, 0.707  # outline drawn for orientation only
+    for i in range(0, len(steps), max(1, int(round(2.0 / scenario.sim.control_dt)))):
+        c, s = np.cos(byaw[i]), np.sin(byaw[i])
+        corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * [length / 2, width / 2]
+        ax.add_patch(Polygon([bx[i], by[i]] + corners @ np.array([[c, s], [-s, c]]), closed=True, fill=False,
+                             ec="grey", lw=0.5, alpha=0.6))
+    for hand in hands:
+        ax.plot(steps[f"{hand}_meas_x"], steps[f"{hand}_meas_y"], lw=1, label=f"{hand} hand")
+    if "box_x" in steps:
+        ax.plot(steps["box_x"], steps["box_y"], color="darkorange", lw=1.5, label="box")
+        if scenario.world.box.goal:
+            ax.plot(*scenario.world.box.goal[:2], "k*", ms=10, label="box goal")
+    ax.set(xlabel="x [m]", ylabel="y [m]", title=f"{scenario.name}: top-down", aspect="equal")
+    ax.autoscale_view()
+    ax.legend(fontsize=8, loc="best")
+    _save(fig, out / "top_down.png")

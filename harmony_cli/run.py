@@ -17,13 +17,17 @@ import pandas as pd
 import yaml
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
-from harmony_cli.loop import run_loop
-from harmony_cli.metrics import summarise
+from harmony_cli.loop import run_loop, trajectory_references
+from harmony_cli.metrics import summarise, task_outcome
 from harmony_cli.reference import HandReference
 from harmony_cli.robot import load_robot
 from harmony_cli.scenario import load_scenario, scenario_yaml
 from harmony_cli.sim import Simulation
+from harmony_cli.two_stage import TaskReferences
+from harmony_cli.video import VideoRecorder, frame_every
 from harmony_cli.wholebody import WholeBodyMPC
+
+VIDEO_FPS, VIDEO_SIZE = 10.0, (480, 360)  # TinyRenderer: ~0.1 s per frame at this size on a 2-core VM
 
 class RunFailed(RuntimeError):
     """A run that stopped part-way; its directory holds steps.csv, run.log and summary.json (status, error)."""
@@ -74,12 +78,14 @@ def default_run_dir(name: str, root: Path = Path("results/runs")) -> Path:
 
 
 def run_scenario(path: str | Path, overrides: list[str] = (), out: Path | None = None, progress: bool = True,
-                 concurrency: int = 1) -> Path:
-    """Run one scenario closed loop; always leaves steps.csv, summary.json (status) and run.log in `out`."""
+                 concurrency: int = 1, video: Path | bool | None = None) -> Path:
+    """Run one scenario closed loop; always leaves steps.csv, summary.json (status) and run.log in `out`;
+    `video` (a .mp4 or .gif path, or True for out/video.mp4) records it, rendered headless."""
     path = Path(path)
     scenario = load_scenario(path, overrides)
     out = Path(out) if out else default_run_dir(scenario.name)
     out.mkdir(parents=True, exist_ok=True)
+    video = out / "video.mp4" if video is True else video
     resolved = yaml.safe_load(scenario_yaml(scenario))
     resolved["robot"]["urdf"] = str((path.parent / scenario.robot.urdf).resolve())  # re-runnable from out/
     (out / "scenario.resolved.yaml").write_text(yaml.safe_dump(resolved, sort_keys=False))
@@ -92,8 +98,11 @@ def run_scenario(path: str | Path, overrides: list[str] = (), out: Path | None =
     try:
         robot = load_robot(scenario.robot, path.parent)
         mpc = WholeBodyMPC(robot, scenario, scenario.sim.control_dt)
-        sim = Simulation(robot, scenario.sim)
-        reference = HandReference(scenario.reference, robot.hand_poses_numeric(robot.home))
+        sim = Simulation(robot, scenario.sim, scenario.world)
+        if scenario.task is not None:
+            references = TaskReferences(robot, scenario, sim)
+        else:
+            references = trajectory_references(HandReference(scenario.reference, robot.hand_poses_numeric(robot.home)))
         summary |= {"transcription": scenario.mpc.transcription, "knots": scenario.mpc.knots,
                     "control_points": scenario.mpc.control_points if scenario.mpc.transcription == "bezier" else None,
                     "horizon_s": scenario.mpc.horizon, "solver": scenario.solver.name,
@@ -101,19 +110,30 @@ def run_scenario(path: str | Path, overrides: list[str] = (), out: Path | None =
                     "n_dof": robot.n_dof, "build_time_s": mpc.build_time}
         log.write(f"built whole-body MPC: {mpc.problem.n_vars} decision variables in {mpc.build_time:.2f} s\n")
 
+        recorder = VideoRecorder(sim.client, video, fps=VIDEO_FPS, size=VIDEO_SIZE,
+                                 follow=lambda: sim.observe().q[list(robot.base_joints[:2])].tolist() + [0.6]) \
+            if video else None
+        every = frame_every(scenario.sim.control_dt, VIDEO_FPS)
+
         def record(row: dict) -> None:
             rows.append(row)
             if not row["success"]:
                 log.write(f"t={row['t']:.2f}s: solve failed ({row['status']}); held the last good plan\n")
                 log.flush()
+            if row.get("planner_success") is False:
+                log.write(f"t={row['t']:.2f}s: planner failed ({row['planner_status']}); held its last plan\n")
+            if recorder and row["step"] % every == 0:
+                recorder.capture()
 
         with Progress(TextColumn(f"[bold]{scenario.name}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                       TimeRemainingColumn(), disable=not progress, transient=False) as bar:
             task = bar.add_task("run", total=int(round(scenario.sim.duration / scenario.sim.control_dt)))
             start = time.perf_counter()
-            run_loop(mpc, sim, reference, scenario.sim.duration, scenario.sim.control_dt, scenario.sim.substeps,
+            run_loop(mpc, sim, references, scenario.sim.duration, scenario.sim.control_dt, scenario.sim.substeps,
                      record, lambda done, total: bar.update(task, completed=done))
         summary["wall_time_s"] = time.perf_counter() - start
+        if recorder:
+            summary["video"] = str(recorder.close())
         sim.close()
         summary["status"] = "completed"
     except BaseException as exc:  # noqa: BLE001 - record why (interrupts too), then report
@@ -128,6 +148,8 @@ def run_scenario(path: str | Path, overrides: list[str] = (), out: Path | None =
         steps.to_csv(out / "steps.csv", index=False)
         if len(steps):
             summary |= summarise(steps, list(robot.hand_names))
+            if scenario.task is not None:
+                summary["task"] = task_outcome(steps, scenario, list(robot.hand_names))
         (out / "meta.json").write_text(json.dumps(meta, indent=2))
         (out / "summary.json").write_text(json.dumps(summary, indent=2))
         log.write(f"status: {summary['status']}\n")
@@ -135,4 +157,7 @@ def run_scenario(path: str | Path, overrides: list[str] = (), out: Path | None =
         if len(steps):
             from harmony_cli.plots import plot_run
             plot_run(out, steps, list(robot.hand_names))
+            if scenario.task is not None:
+                from harmony_cli.plots import plot_top_down
+                plot_top_down(out, steps, scenario, list(robot.hand_names), list(robot.joint_names))
     return out

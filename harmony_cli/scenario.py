@@ -35,6 +35,12 @@ class RobotSpec(Strict):
                                                    description="pairs regularised to (a + b)^2 -> 0")
     home_deg: dict[str, float] = Field(default_factory=lambda: dict(EVA_HOME_DEG),
                                        description="joint -> home angle in degrees (metres for prismatic); others 0")
+    footprint: list[tuple[float, float, float]] = Field(
+        default_factory=lambda: [(x, y, 0.2036) for x in (-0.4028, -0.2014, 0.0, 0.2014, 0.4028)
+                                 for y in (-0.1768, 0.1768)],
+        description="circles [x, y, radius] in the base frame covering the base (default: EVA's 1.007 x 0.707 m "
+                    "box, 2 x 5 circles)")
+    base_margin: float = Field(0.03, ge=0, description="clearance the footprint keeps from table legs [m]")
 
 
 class SCurveReference(Strict):
@@ -63,6 +69,7 @@ class Weights(Strict):
     arm_symmetry: float = Field(0.1, ge=0, description="(LARM_JOINT0 + RARM_JOINT0)^2")
     posture: float = Field(0.001, ge=0, description="arm joints away from home")
     velocity: float = Field(0.01, ge=0, description="joint velocity at the knots")
+    clearance: float = Field(1.0e4, ge=0, description="squared clearance violation (base footprint and hands)")
     acceleration: float = Field(0.001, ge=0, description="joint acceleration at the knots")
 
 
@@ -73,6 +80,100 @@ class MpcSpec(Strict):
     knots: int = Field(26, ge=2, description="time knots K where the cost is evaluated (independent of N)")
     control_points: int = Field(6, ge=2, description="Bezier control points N (bezier only)")
     weights: Weights = Weights()
+
+
+class PlannerWeights(Strict):
+    smoothness: float = Field(0.05, ge=0, description="first differences of the control points")
+    acceleration: float = Field(0.02, ge=0, description="second differences of the control points")
+    level: float = Field(1.0, ge=0, description="both hands at one height, at every control point")
+    facing: float = Field(3.0, ge=0, description="inter-hand vector across the heading (pads face each other)")
+
+
+class PlannerSpec(Strict):
+    """Task-space planner (MPC-T) for both hands; see planner.py."""
+
+    control_points: int = Field(11, ge=6, description="Bezier control points M per curve")
+    min_horizon: PositiveFloat = Field(1.0, description="lower clamp of the remaining phase time [s]")
+    max_speed: tuple[float, float, float] = Field((0.9, 0.9, 0.5), description="hand speed bound x, y, z [m/s]")
+    max_acceleration: tuple[float, float, float] = Field((1.0, 1.0, 1.0), description="[m/s^2]")
+    max_yaw_rate: PositiveFloat = Field(0.8, description="heading rate bound [rad/s]")
+    max_yaw_acceleration: PositiveFloat = Field(1.5, description="[rad/s^2]")
+    samples: int = Field(20, ge=2, description="sample times for clearance and facing")
+    hand_radius: float = Field(0.08, ge=0, description="added to every obstacle margin for a hand centre [m]")
+    period: int = Field(1, ge=1, description="re-plan every `period` control steps")
+    start_velocity: Literal["plan", "measured"] = Field(
+        "plan", description="initial hand velocity of each re-plan (the pose is always the measured one): the "
+                            "previous plan's, or the measured one (restarts from rest when the robot lags)")
+    iterations: int = Field(1, ge=1, description="SQP iterations per re-plan (1: real-time iteration)")
+    phase_iterations: int = Field(10, ge=1, description="SQP iterations at the start of a phase")
+    tol: PositiveFloat = Field(1e-5, description="SQP step tolerance [m]")
+    qp: Literal["daqp", "qpoases", "osqp", "proxqp"] = "daqp"
+    weights: PlannerWeights = PlannerWeights()
+
+
+Vector3 = tuple[float, float, float]
+
+
+class ObstacleSpec(Strict):
+    """A static obstacle; `size` is the full extent x, y, z for a box, [diameter, diameter, height] for a
+    cylinder and [diameter] * 3 for a sphere."""
+
+    name: str
+    shape: Literal["box", "cylinder", "sphere"]
+    position: Vector3 = Field(description="centre [m]")
+    yaw_deg: float = 0.0
+    size: Vector3
+    margin: float = Field(0.05, ge=0, description="clearance the MPCs keep from its surface [m]")
+
+
+class TableSpec(Strict):
+    name: str
+    position: tuple[float, float] = Field(description="centre of the top in x, y [m]")
+    yaw_deg: float = 0.0
+    top: tuple[float, float] = Field((1.5, 0.8), description="top size x, y [m]")
+    height: PositiveFloat = Field(1.015, description="top surface above the floor [m]")
+    thickness: PositiveFloat = 0.03
+    friction: PositiveFloat = 0.6
+
+
+class BoxSpec(Strict):
+    """The object to carry: a free PyBullet body held only by friction between the pads."""
+
+    size: Vector3 = (0.308, 0.305, 0.3)
+    mass: PositiveFloat = 0.8
+    position: Vector3 = Field(description="centre [m]")
+    yaw_deg: float = 0.0
+    friction: PositiveFloat = 0.8
+    goal: Vector3 | None = Field(None, description="where the box should end (centre) [m]; success within 5 cm")
+
+
+class WorldSpec(Strict):
+    tables: list[TableSpec] = []
+    box: BoxSpec | None = None
+    obstacles: list[ObstacleSpec] = []
+
+
+class RelativeTarget(Strict):
+    relative_to: str = Field(description="`box` or a table name; the offset is in that object's frame")
+    offset: Vector3
+
+
+HandTarget = Union[Vector3, RelativeTarget, None]
+
+
+class PhaseSpec(Strict):
+    """One task phase: hand goals reached at rest at the end of `duration` (null: stay where it is)."""
+
+    name: str
+    duration: PositiveFloat
+    hands: dict[str, HandTarget] = Field(description="hand label -> absolute [x, y, z], relative target or null")
+    squeeze: float = Field(0.0, ge=0, description="goals moved towards each other by this much in total [m]")
+    grasp: bool = Field(False, description="the box is held from the end of this phase")
+    release: bool = Field(False, description="the box is let go during this phase")
+
+
+class TaskSpec(Strict):
+    phases: list[PhaseSpec] = Field(min_length=1)
 
 
 HARMONY_SOLVERS = ("gauss_newton", "rti")  # harmony's own Gauss-Newton SQP and real-time iteration
@@ -120,7 +221,10 @@ class Scenario(Strict):
     description: str = ""
     seed: int = 0
     robot: RobotSpec = RobotSpec()
-    reference: Reference
+    reference: Reference | None = None
+    task: TaskSpec | None = None
+    world: WorldSpec = WorldSpec()
+    planner: PlannerSpec = PlannerSpec()
     mpc: MpcSpec = MpcSpec()
     solver: SolverSpec = SolverSpec()
     sim: SimSpec = SimSpec()
@@ -199,6 +303,29 @@ def _check_robot(path: Path, scenario: Scenario) -> None:
                                     f"joints: {', '.join(sorted(joints))}")
 
 
+def _check_task(path: Path, scenario: Scenario) -> None:
+    """Exactly one of reference / task; phase hands and relative targets name things that exist."""
+    if (scenario.reference is None) == (scenario.task is None):
+        problem = "both given" if scenario.task else "missing"
+        raise ScenarioError(f"{path}: reference / task: {problem}; give exactly one (reference: a hand trajectory "
+                            f"such as s_curve; task: phases for the planner)")
+    if scenario.task is None:
+        return
+    hands, world = set(scenario.robot.end_effectors), scenario.world
+    objects = {t.name for t in world.tables} | ({"box"} if world.box else set())
+    for i, phase in enumerate(scenario.task.phases):
+        where = f"task.phases.{i}"
+        if set(phase.hands) != hands:
+            raise ScenarioError(f"{path}: {where}.hands: {sorted(phase.hands)} must name every hand exactly once; "
+                                f"hands: {', '.join(sorted(hands))}")
+        for hand, target in phase.hands.items():
+            if isinstance(target, RelativeTarget) and target.relative_to not in objects:
+                raise ScenarioError(f"{path}: {where}.hands.{hand}.relative_to: {target.relative_to!r} is not in "
+                                    f"the world; choose one of: {', '.join(sorted(objects)) or '(none)'}")
+        if (phase.grasp or phase.release) and world.box is None:
+            raise ScenarioError(f"{path}: {where}.grasp/release: the world has no box")
+
+
 def _check_solver(path: Path, scenario: Scenario) -> None:
     from harmony_cli.solvers import available_nlp_plugins  # casadi import kept out of schema-only use
 
@@ -227,6 +354,7 @@ def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
     except ValidationError as err:
         raise ScenarioError(_one_line(path, err)) from None
     _check_robot(path, scenario)
+    _check_task(path, scenario)
     _check_solver(path, scenario)
     return scenario
 

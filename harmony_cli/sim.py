@@ -12,6 +12,7 @@ import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
 from harmony_cli.robot import Robot
+from harmony_cli.world import World
 
 
 @dataclass(frozen=True)
@@ -20,6 +21,8 @@ class Observation:
     qd: np.ndarray
     hand_positions: np.ndarray  # (hands, 3) world positions of the end-effector frames
     hand_rotations: np.ndarray  # (hands, 3, 3)
+    hand_velocities: np.ndarray  # (hands, 3) world linear velocities
+    heading_rate: float  # mean yaw rate of the hands [rad/s]
 
 
 @contextlib.contextmanager
@@ -39,7 +42,7 @@ def _silenced_stdout():
 class Simulation:
     """Base through its virtual planar joints (velocity), every other joint by position + velocity targets."""
 
-    def __init__(self, robot: Robot, sim_spec):
+    def __init__(self, robot: Robot, sim_spec, world=None):
         self.robot, self.spec = robot, sim_spec
         with _silenced_stdout():
             self.client = BulletClient(connection_mode=pybullet.DIRECT)
@@ -62,15 +65,21 @@ class Simulation:
         self.others = [i for i in range(robot.n_dof) if i not in robot.base_joints]
         for i, j in enumerate(self.joints):
             self.client.resetJointState(self.body, j, robot.home[i], 0.0)
+        for link in range(-1, self.client.getNumJoints(self.body)):
+            self.client.changeDynamics(self.body, link, lateralFriction=1.0)
+        self.world = World(self.client, world) if world is not None else None
         self.time = 0.0
 
     def observe(self) -> Observation:
         states = self.client.getJointStates(self.body, self.joints)
-        links = self.client.getLinkStates(self.body, self.hand_links, computeForwardKinematics=True)
+        links = self.client.getLinkStates(self.body, self.hand_links, computeForwardKinematics=True,
+                                          computeLinkVelocity=True)
         return Observation(
             q=np.array([s[0] for s in states]), qd=np.array([s[1] for s in states]),
             hand_positions=np.array([l[4] for l in links]),
-            hand_rotations=np.array([np.reshape(self.client.getMatrixFromQuaternion(l[5]), (3, 3)) for l in links]))
+            hand_rotations=np.array([np.reshape(self.client.getMatrixFromQuaternion(l[5]), (3, 3)) for l in links]),
+            hand_velocities=np.array([l[6] for l in links]),
+            heading_rate=float(np.mean([l[7][2] for l in links])))
 
     def apply(self, q_target: np.ndarray, qd_target: np.ndarray) -> None:
         base = [self.joints[i] for i in self.base]

@@ -9,9 +9,11 @@ import casadi as cs
 import numpy as np
 import optas
 
+from harmony_cli.geometry import symbolic_distance
 from harmony_cli.robot import Robot
 from harmony_cli.solvers import Problem, SolveResult, linear_rows, make_solver
 from harmony_cli.transcription import make_transcription
+from harmony_cli.world import obstacle_shape, table_legs
 
 
 @dataclass(frozen=True)
@@ -21,35 +23,68 @@ class Command:
     held: bool  # True when the solve failed and the last good plan was used
 
 
-def task_residual_function(robot: Robot, weights, n_knots: int) -> cs.Function:
-    """Weighted per-knot hand residual r(q, ref) = [sqrt(w_p/K)(p - p_ref); sqrt(w_o/K) vec(R - R_ref)] per hand.
+@dataclass(frozen=True)
+class Clearance:
+    """An obstacle as the whole-body MPC sees it: its centre (3) and yaw are parameters at every knot (so it
+    may move); the base footprint circles keep `base` [m] from it in x, y and the hands `hand` [m] in 3-D
+    (None: the hands may touch it, e.g. a table)."""
 
-    ref stacks per hand [p_ref (3); vec(R_ref) (9)]; ||R - R_ref||_F^2 = 2(3 - tr(R_ref^T R)) is sign-safe.
+    kind: str
+    half: np.ndarray
+    base: float
+    hand: float | None
+
+
+def task_residual_function(robot: Robot, weights, n_knots: int, clearances: tuple[Clearance, ...] = (),
+                           footprint: tuple[tuple[float, float, float], ...] = ()) -> cs.Function:
+    """Weighted per-knot residual r(q, ref) = [sqrt(w_p/K)(p - p_ref); sqrt(w_o/K) vec(R - R_ref)] per hand, then
+    sqrt(w_c/K) max(0, needed - distance) for every (footprint circle | hand, obstacle) pair.
+
+    ref stacks per hand [p_ref (3); vec(R_ref) (9)], then per obstacle [centre (3); yaw];
+    ||R - R_ref||_F^2 = 2(3 - tr(R_ref^T R)) is sign-safe. The hinge is squared in the cost: C1.
     """
+    H = len(robot.end_effectors)
     q = cs.SX.sym("q", robot.n_dof)
-    ref = cs.SX.sym("ref", 12 * len(robot.end_effectors))
+    ref = cs.SX.sym("ref", 12 * H + 4 * len(clearances))
     wp, wo = np.sqrt(weights.position / n_knots), np.sqrt(weights.orientation / n_knots)
-    parts = []
-    for h in range(len(robot.end_effectors)):
+    wc = np.sqrt(weights.clearance / n_knots)
+    parts, hands = [], []
+    for h in range(H):
         p, R = robot.hand_pose(h, q)
+        hands.append(p)
         parts += [wp * (p - ref[12 * h: 12 * h + 3]), wo * (cs.vec(R) - ref[12 * h + 3: 12 * h + 12])]
+    bx, by, byaw = (q[i] for i in robot.base_joints)
+    circles = [(cs.vertcat(bx + cs.cos(byaw) * x - cs.sin(byaw) * y, by + cs.sin(byaw) * x + cs.cos(byaw) * y, 0),
+                r) for x, y, r in footprint]
+    for o, obstacle in enumerate(clearances):
+        centre, yaw = ref[12 * H + 4 * o: 12 * H + 4 * o + 3], ref[12 * H + 4 * o + 3]
+        for point, radius in circles:
+            d = symbolic_distance(obstacle.kind, obstacle.half, centre, yaw, point, planar=True)
+            parts.append(wc * cs.fmax(0, obstacle.base + radius - d))
+        if obstacle.hand is not None:
+            for p in hands:
+                parts.append(wc * cs.fmax(0, obstacle.hand - symbolic_distance(obstacle.kind, obstacle.half,
+                                                                                 centre, yaw, p)))
     return cs.Function("task_residual", [q, ref], [cs.vertcat(*parts)])
 
 
-def build_problem(robot: Robot, transcription, weights, chest_joints, mirrored_joints) -> Problem:
+def build_problem(robot: Robot, transcription, weights, chest_joints, mirrored_joints,
+                  clearances: tuple[Clearance, ...] = (), footprint: tuple = ()) -> Problem:
     """The MPC-W problem from one spec for either transcription, modelled with OpTaS's builder."""
     K, H = transcription.n_knots, len(robot.end_effectors)
     builder = optas.OptimizationBuilder(T=1)
     parts = [builder.add_decision_variables(name, *shape) for name, shape in transcription.variable_shapes.items()]
     x = cs.vertcat(*[cs.vec(v) for v in parts])
-    ref = builder.add_parameter("hand_ref", 12 * H, K)
+    ref = builder.add_parameter("knot_params", 12 * H + 4 * len(clearances), K)  # hand refs, obstacle poses
     q, dq, ddq = transcription.knots(x)
 
-    task_residual = task_residual_function(robot, weights, K)
-    residual = task_residual.map(K)(q, ref)  # 12H x K
+    task_residual = task_residual_function(robot, weights, K, clearances, footprint)
+    residual = task_residual.map(K)(q, ref)
     for h, hand in enumerate(robot.hand_names):
         builder.add_cost_term(f"position_{hand}", cs.sumsqr(residual[12 * h: 12 * h + 3, :]))
         builder.add_cost_term(f"orientation_{hand}", cs.sumsqr(residual[12 * h + 3: 12 * h + 12, :]))
+    if clearances:
+        builder.add_cost_term("clearance", cs.sumsqr(residual[12 * H:, :]))
 
     moving = [i for i in range(robot.n_dof) if i not in robot.pinned_joints]
     chest = [robot.index(j) for j in chest_joints]
@@ -73,7 +108,7 @@ def build_problem(robot: Robot, transcription, weights, chest_joints, mirrored_j
     return Problem(
         x=x, p=optimization.parameters.vec(), terms={k: optimization.cost_terms[k] for k in optimization.cost_terms},
         A=A, lb=lb, ub=ub, task_residual=task_residual,
-        position_basis=transcription.position_basis, ref_shape=(12 * H, K), L=L, c=c.ravel())
+        position_basis=transcription.position_basis, ref_shape=(ref.shape[0], K), L=L, c=c.ravel())
 
 
 class WholeBodyMPC:
@@ -83,8 +118,18 @@ class WholeBodyMPC:
         start = time.perf_counter()
         self.robot, self.control_dt = robot, control_dt
         self.transcription = make_transcription(scenario.mpc, robot.n_dof)
+        world, margin = scenario.world, scenario.planner.hand_radius
+        shapes = [obstacle_shape(o) for o in world.obstacles]
+        self.clearances = tuple(Clearance(s.kind, s.half, o.margin, o.margin + margin)
+                                for o, s in zip(world.obstacles, shapes))
+        legs = [leg for t in world.tables for leg in table_legs(t)]  # the base may pass under a table's top
+        self.clearances += tuple(Clearance("box", leg.half, scenario.robot.base_margin, None) for leg in legs)
+        # obstacle poses at every knot (rows of knot_params after the hand references); moving ones update them
+        poses = [np.r_[s.centre, s.yaw] for s in shapes + legs]
+        self.obstacle_poses = np.tile(np.concatenate(poses or [np.zeros(0)])[:, None], self.transcription.n_knots)
         self.problem = build_problem(robot, self.transcription, scenario.mpc.weights, scenario.robot.chest_joints,
-                                     scenario.robot.mirrored_joints)
+                                     scenario.robot.mirrored_joints, self.clearances,
+                                     tuple(map(tuple, scenario.robot.footprint)) if self.clearances else ())
         self.solver = make_solver(self.problem, scenario.solver)
         self.build_time = time.perf_counter() - start
         self.x = None  # last good solution
@@ -101,13 +146,14 @@ class WholeBodyMPC:
 
     def step(self, q_now: np.ndarray, hand_ref: np.ndarray) -> tuple[Command, SolveResult]:
         """hand_ref: (12 * hands) x K references at the knot times (see task_residual_function)."""
+        self.params = np.vstack([hand_ref, self.obstacle_poses]).ravel(order="F")
         t, dt, robot = self.transcription, self.control_dt, self.robot
         q_init = q_now.copy()
         q_init[self.pinned] = robot.home[self.pinned]
         lbx, ubx = t.bounds(robot.lower, robot.upper, robot.velocity_limit, q_init, self.pinned,
                             robot.home[self.pinned])
         x0 = self._constant(q_init) if self.x is None else t.shift(self.x, dt)
-        result = self.solver.solve(np.clip(x0, lbx, ubx), lbx, ubx, hand_ref.ravel(order="F"))
+        result = self.solver.solve(np.clip(x0, lbx, ubx), lbx, ubx, self.params)
         held = not result.success
         if held and self.x is None:
             raise RuntimeError(f"first whole-body MPC solve failed ({result.status}); no plan to hold")

@@ -1,0 +1,226 @@
+"""Task-space planner (MPC-T): both hands' paths from their measured state to the phase goal at rest.
+
+Decision variables: Bezier control points (M per curve) of hand 0's and hand 1's positions and of their common
+heading psi, a (7, M) array. The hands stay level with their pads facing each other by construction,
+R_h(t) = Rz(psi(t)) R_h(home): a heading is an SO(2) curve, so there is no quaternion to normalise, and the goal
+heading is unwrapped to the one nearest the current heading (the same hemisphere). Costs keep the inter-hand
+vector across the heading (along the pad normals) and both hands at one height, and smooth the control points.
+
+Start: control points 0 and 1 from the measured positions and velocities; end: the last three at the goal (at
+rest: zero velocity and acceleration). Speed and acceleration bounds on the hodograph control points. Obstacles:
+the signed distance of each hand (and, while carrying, of the object between them) at sample times stays above
+its clearance, linearised at the current plan. Gauss-Newton SQP over the free control points, one DAQP QP per
+iteration: `phase_iterations` at a phase change, `iterations` (1: real-time iteration) on every other step.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import casadi as cs
+import numpy as np
+
+from harmony_cli.bezier import bernstein_basis, difference_matrix, shift_matrix
+from harmony_cli.geometry import Shape
+from harmony_cli.knot_derivatives import Buffered
+
+ROWS = 7  # hand 0 xyz, hand 1 xyz, heading
+
+
+def rot_z(angle: np.ndarray) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    rot = np.zeros(np.shape(angle) + (3, 3))
+    rot[..., 0, 0], rot[..., 0, 1], rot[..., 1, 0], rot[..., 1, 1], rot[..., 2, 2] = c, -s, s, c, 1.0
+    return rot
+
+
+@dataclass(frozen=True)
+class HandState:
+    positions: np.ndarray  # (2, 3) world
+    velocities: np.ndarray  # (2, 3)
+    heading: float  # psi [rad]
+    heading_rate: float = 0.0  # [rad/s]
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    shape: Shape
+    clearance: float  # required signed distance of a hand centre [m] (margin + hand radius)
+    name: str = ""
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The planned curves over [start, start + horizon]; held at the goal after the end."""
+
+    control_points: np.ndarray  # (7, M)
+    start: float
+    horizon: float
+    home_rotations: np.ndarray  # (2, 3, 3)
+
+    def rates(self, t: float) -> np.ndarray:
+        """d/dt of the 7 curves at absolute time t (zero after the end)."""
+        s = (t - self.start) / self.horizon
+        if s >= 1.0:
+            return np.zeros(ROWS)
+        n = self.control_points.shape[1] - 1
+        hodograph = n * np.diff(self.control_points, axis=1) / self.horizon
+        return hodograph @ bernstein_basis(n, max(s, 0.0))[0]
+
+    def sample(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Hand positions (n, 2, 3) and rotations (n, 2, 3, 3) at absolute times."""
+        s = np.clip((np.atleast_1d(times) - self.start) / self.horizon, 0.0, 1.0)
+        values = self.control_points @ bernstein_basis(self.control_points.shape[1], s).T  # (7, n)
+        positions = values[:6].T.reshape(-1, 2, 3)
+        rotations = np.einsum("nij,hjk->nhik", rot_z(values[6]), self.home_rotations)
+        return positions, rotations
+
+
+@dataclass(frozen=True)
+class PlannerResult:
+    plan: Plan
+    success: bool
+    status: str
+    iterations: int
+    solve_time: float
+    min_clearance: float  # predicted, over samples and obstacles [m] (inf without obstacles)
+
+
+class TaskPlanner:
+    """Built once for a set of obstacles; `step` re-plans from the measured hand state."""
+
+    def __init__(self, spec, obstacles: list[Obstacle], home_rotations: np.ndarray, heading_offset: float):
+        self.spec, self.obstacles, self.home_rotations = spec, obstacles, home_rotations
+        self.heading_offset = heading_offset  # heading = angle(p_1 - p_0) + offset (pads face each other)
+        M = self.M = spec.control_points
+        self.free = np.zeros((ROWS, M), dtype=bool)
+        self.free[:, 2:M - 3] = True
+        self.n_free = int(self.free.sum())
+        s = np.linspace(0.0, 1.0, spec.samples + 1)[1:]  # obstacle and facing samples (s = 0 is fixed)
+        self.B = bernstein_basis(M, s)  # (S, M)
+        D1, D2 = difference_matrix(M, 1), difference_matrix(M, 2)
+        eye = np.eye(ROWS)
+        w = spec.weights
+        # linear residuals: smoothness (first and second differences of every curve) and level hands
+        level = np.zeros((M, ROWS * M))
+        level[:, 2 * M:3 * M], level[:, 5 * M:6 * M] = np.eye(M), -np.eye(M)
+        self.J_lin = np.vstack([w.smoothness * np.kron(eye, D1), w.acceleration * np.kron(eye, D2),
+                                w.level * level])
+        # bound rows: hodograph control points of velocity and acceleration, per curve (bounds scale with T)
+        self.A = np.vstack([np.kron(eye, D1), np.kron(eye, D2)])
+        n1, n2 = D1.shape[0], D2.shape[0]
+        v = np.r_[spec.max_speed, spec.max_speed, spec.max_yaw_rate]
+        a = np.r_[spec.max_acceleration, spec.max_acceleration, spec.max_yaw_acceleration]
+        self._rate_limits = np.r_[np.repeat(v, n1), np.repeat(a, n2)]
+        self._rate_order = np.r_[np.ones(ROWS * n1), 2 * np.ones(ROWS * n2)]
+        self.keep = np.any(self.A[:, self.free.ravel()] != 0, axis=1)  # rows with a free variable
+        self.n_points = 3  # hand 0, hand 1, the carried object (midpoint)
+        n_rows = int(self.keep.sum()) + len(obstacles) * self.n_points * s.size
+        self.qp = Buffered(cs.conic("planner", spec.qp, {"h": cs.Sparsity.dense(self.n_free, self.n_free),
+                                                         "a": cs.Sparsity.dense(n_rows, self.n_free)},
+                                    {"error_on_fail": False}))
+        self.C, self.phase, self.t_plan, self.T_plan = None, None, 0.0, 1.0
+
+    def _fixed(self, C: np.ndarray, state: HandState, goal: np.ndarray, goal_heading: float, T: float):
+        n = self.M - 1
+        start = np.r_[state.positions.ravel(), state.heading]
+        rate = np.r_[state.velocities.ravel(), state.heading_rate]
+        end = np.r_[goal.ravel(), goal_heading]
+        C[:, 0], C[:, 1] = start, start + rate * T / n
+        C[:, -3:] = end[:, None]
+
+    def goal_heading(self, goal: np.ndarray, heading_now: float) -> float:
+        d = goal[1] - goal[0]
+        heading = np.arctan2(d[1], d[0]) + self.heading_offset
+        return heading_now + (heading - heading_now + np.pi) % (2 * np.pi) - np.pi  # nearest to heading_now
+
+    def step(self, t: float, state: HandState, goal: np.ndarray, phase_end: float, phase: int,
+             carrying_radius: float | None = None) -> PlannerResult:
+        """Re-plan at time t towards `goal` (2, 3) for phase number `phase` ending at `phase_end`."""
+        start_time = time.perf_counter()
+        spec, M = self.spec, self.M
+        T = max(phase_end - t, spec.min_horizon)
+        heading_goal = self.goal_heading(goal, state.heading)
+        if self.C is None or phase != self.phase:  # straight line to the goal, then full SQP
+            C = np.zeros((ROWS, M))
+            start, end = np.r_[state.positions.ravel(), state.heading], np.r_[goal.ravel(), heading_goal]
+            C[:] = start[:, None] + (end - start)[:, None] * np.linspace(0, 1, M)
+            iterations = spec.phase_iterations
+        else:  # the previous plan from now on (de Casteljau), re-timed to the new horizon
+            tau = np.clip((t - self.t_plan) / self.T_plan, 0.0, 0.99)
+            C = self.C @ shift_matrix(M, tau) if tau > 0 else self.C.copy()
+            iterations = spec.iterations
+        self._fixed(C, state, goal, heading_goal, T)
+        status, success, clearance, it = "max_iter", True, np.inf, 0
+        for it in range(1, iterations + 1):
+            step, clearance, status = self._sqp_step(C, T, carrying_radius)
+            if step is None:
+                success = False
+                break
+            C[self.free] += step
+            if np.max(np.abs(step)) < spec.tol:
+                status = status.replace("rti_step", "converged")
+                break
+        if success:
+            self.C, self.phase, self.t_plan, self.T_plan = C, phase, t, T
+        elif self.C is None:
+            raise RuntimeError(f"first planner solve failed ({status}); no plan to hold")
+        plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
+        return PlannerResult(plan, success, status, it, time.perf_counter() - start_time, clearance)
+
+    def _sqp_step(self, C: np.ndarray, T: float, carrying_radius: float | None):
+        """One Gauss-Newton QP over the free control points: (step or None, predicted clearance, status)."""
+        free = self.free.ravel()
+        x = C.ravel()
+        # facing residual (p_1 - p_0) . h(psi) at the samples, h = (cos, sin, 0), and its Jacobian
+        curves = C @ self.B.T  # (7, S)
+        d, psi = curves[3:5] - curves[0:2], curves[6]
+        h, dh = np.stack([np.cos(psi), np.sin(psi)]), np.stack([-np.sin(psi), np.cos(psi)])
+        w = self.spec.weights.facing
+        r_face = w * np.sum(d * h, axis=0)
+        J_face = np.zeros((psi.size, ROWS, self.M))
+        for axis in range(2):
+            J_face[:, axis] = -w * h[axis][:, None] * self.B
+            J_face[:, 3 + axis] = w * h[axis][:, None] * self.B
+        J_face[:, 6] = w * np.sum(d * dh, axis=0)[:, None] * self.B
+        r = np.r_[self.J_lin @ x, r_face]
+        J = np.vstack([self.J_lin, J_face.reshape(psi.size, -1)])[:, free]
+        H = J.T @ J + 1e-9 * np.eye(self.n_free)
+        g = J.T @ r
+        limit = self._rate_limits * T**self._rate_order  # D^k P are s-derivatives: time derivative = D^k P / T^k
+        Ax = self.A @ x
+        rows = [self.A[self.keep][:, free]]
+        lba, uba = [(-limit - Ax)[self.keep]], [(limit - Ax)[self.keep]]
+        clearance = np.inf
+        points = [curves[0:3].T, curves[3:6].T, 0.5 * (curves[0:3] + curves[3:6]).T]
+        weights = [(1.0, 0.0), (0.0, 1.0), (0.5, 0.5)]
+        for obstacle in self.obstacles:
+            for k, (p, (w0, w1)) in enumerate(zip(points, weights)):
+                dist, grad = obstacle.shape.distance(p)
+                needed = obstacle.clearance if k < 2 else obstacle.clearance + (carrying_radius or 0.0)
+                active = k < 2 or carrying_radius is not None
+                row = np.zeros((psi.size, ROWS, self.M))
+                for axis in range(3):
+                    row[:, axis] = w0 * grad[:, axis][:, None] * self.B
+                    row[:, 3 + axis] = w1 * grad[:, axis][:, None] * self.B
+                rows.append(row.reshape(psi.size, -1)[:, free] if active else np.zeros((psi.size, self.n_free)))
+                lba.append(needed - dist if active else np.full(psi.size, -np.inf))
+                uba.append(np.full(psi.size, np.inf))
+                if active:
+                    clearance = min(clearance, float(np.min(dist - needed)))
+        lba, uba = np.concatenate(lba), np.concatenate(uba)
+        # the measured start may not allow stopping at the goal within the rate bounds (the hands lag behind the
+        # plan, the phase time runs out): then drop the acceleration bounds, then the speed bounds, and say so
+        n_rate = int(self.keep.sum())
+        acceleration = np.zeros(lba.size, dtype=bool)
+        acceleration[:n_rate] = (self._rate_order == 2)[self.keep]
+        for relaxed, drop in (("", None), (" (acceleration bounds dropped)", acceleration),
+                              (" (rate bounds dropped)", np.arange(lba.size) < n_rate)):
+            if drop is not None:
+                lba, uba = np.where(drop, -np.inf, lba), np.where(drop, np.inf, uba)
+            out = self.qp(h=H, g=g, a=np.vstack(rows), lba=lba, uba=uba, lbx=-np.inf, ubx=np.inf)
+            stats = self.qp.stats()
+            if stats["success"]:
+                return out["x"].copy(), clearance, "rti_step" + relaxed
+        return None, clearance, f"qp_failed: {stats.get('return_status', '?')}"

@@ -1,0 +1,87 @@
+"""Record a headless PyBullet world to an .mp4 or .gif, one TinyRenderer frame per capture()."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import imageio.v2 as imageio
+import numpy as np
+import pybullet
+
+VIDEO_SUFFIXES = (".mp4", ".gif")
+CAMERA_DISTANCE = 4.5  # m from the look-at point
+CAMERA_YAW = -50.0  # deg
+CAMERA_PITCH = -35.0  # deg, negative looks down
+CAMERA_FOV = 60.0  # deg, vertical
+DEFAULT_TARGET = (0.0, 0.0, 0.5)  # world xyz looked at when nothing is followed
+
+
+def frame_every(control_dt: float, fps: float) -> int:
+    """Control steps between two captures so the video runs at about `fps` in simulated time."""
+    if control_dt <= 0 or fps <= 0:
+        raise ValueError(f"control_dt and fps must be positive, got {control_dt=} {fps=}")
+    return max(1, round(1.0 / (fps * control_dt)))
+
+
+def _open_writer(path: Path, fps: float):
+    if path.suffix.lower() == ".mp4":
+        # macro_block_size=2: libx264/yuv420p needs even sides; imageio scales odd ones up by a pixel.
+        return imageio.get_writer(path, format="FFMPEG", mode="I", fps=fps, codec="libx264",
+                                  quality=7, macro_block_size=2)
+    # Pillow can only save a whole animated GIF at close, so frames wait there: bits=8 keeps each
+    # one as a 256-colour palette image (1 byte/pixel). Duration is per frame in ms; loop=0 repeats.
+    return imageio.get_writer(path, format="pillow", mode="I", duration=1000.0 / fps, loop=0, bits=8)
+
+
+class VideoRecorder:
+    """Records a caller-owned DIRECT BulletClient (never disconnected here) to `path`, a 3/4 view."""
+
+    def __init__(self, client, path: Path, fps: float = 25.0, size: tuple[int, int] = (640, 480),
+                 follow: Callable[[], np.ndarray] | None = None,
+                 target: Sequence[float] = DEFAULT_TARGET):
+        self.path = Path(path)
+        if self.path.suffix.lower() not in VIDEO_SUFFIXES:
+            raise ValueError(f"cannot record video to {self.path}: suffix must be one of "
+                             f"{', '.join(VIDEO_SUFFIXES)}")
+        self.client, self.fps, self.follow = client, fps, follow
+        self.width, self.height = size
+        self.target = np.asarray(target, dtype=float)
+        self.frames = 0
+        self.projection = client.computeProjectionMatrixFOV(
+            fov=CAMERA_FOV, aspect=self.width / self.height, nearVal=0.05, farVal=50.0)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._writer = _open_writer(self.path, fps)
+
+    def look_at(self) -> np.ndarray:
+        """World point the camera is aimed at for the next frame."""
+        return self.target if self.follow is None else np.asarray(self.follow(), dtype=float)[:3]
+
+    def render(self) -> np.ndarray:
+        """One (height, width, 3) uint8 RGB image of the current world state."""
+        view = self.client.computeViewMatrixFromYawPitchRoll(
+            cameraTargetPosition=self.look_at().tolist(), distance=CAMERA_DISTANCE,
+            yaw=CAMERA_YAW, pitch=CAMERA_PITCH, roll=0.0, upAxisIndex=2)
+        _, _, rgba, _, _ = self.client.getCameraImage(self.width, self.height, view, self.projection,
+                                                      renderer=pybullet.ER_TINY_RENDERER)
+        return np.asarray(rgba, dtype=np.uint8).reshape(self.height, self.width, 4)[..., :3]
+
+    def capture(self) -> None:
+        """Render the current state and append it to the video."""
+        if self._writer is None:
+            raise RuntimeError(f"video {self.path} is already closed")
+        self._writer.append_data(self.render())
+        self.frames += 1
+
+    def close(self) -> Path:
+        """Finish the file (idempotent) and return its path; without frames it may be missing or empty."""
+        if self._writer is not None:
+            writer, self._writer = self._writer, None
+            writer.close()
+        return self.path
+
+    def __enter__(self) -> VideoRecorder:
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.close()

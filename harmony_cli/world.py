@@ -1,0 +1,108 @@
+"""The scene of a scenario: tables, the box and obstacles as PyBullet bodies, their shapes for the MPCs, and the
+true clearances PyBullet measures (closest points)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pybullet
+
+from harmony_cli.geometry import Shape
+
+FAR = 5.0  # [m] clearances beyond this are reported as FAR (PyBullet only searches this far)
+
+
+def obstacle_shape(spec) -> Shape:
+    half = np.asarray(spec.size, dtype=float) / 2
+    if spec.shape == "sphere":
+        half = np.full(3, half[0])
+    return Shape(spec.shape, np.asarray(spec.position, dtype=float), np.deg2rad(spec.yaw_deg), half)
+
+
+LEG = 0.05  # [m] square table legs, inset by one leg width from the corners
+
+
+def table_shape(spec) -> Shape:
+    """A table's outline: a block from the floor to its top (for plots)."""
+    half = np.array([spec.top[0] / 2, spec.top[1] / 2, spec.height / 2])
+    return Shape("box", np.array([*spec.position, spec.height / 2]), np.deg2rad(spec.yaw_deg), half)
+
+
+def table_legs(spec) -> list[Shape]:
+    """The four legs: what a base (lower than the top) must stay out of; it may pass under the top."""
+    yaw, half_height = np.deg2rad(spec.yaw_deg), (spec.height - spec.thickness) / 2
+    c, s = np.cos(yaw), np.sin(yaw)
+    legs = []
+    for sx in (-1, 1):
+        for sy in (-1, 1):
+            x, y = sx * (spec.top[0] / 2 - LEG), sy * (spec.top[1] / 2 - LEG)
+            centre = np.array([spec.position[0] + c * x - s * y, spec.position[1] + s * x + c * y, half_height])
+            legs.append(Shape("box", centre, yaw, np.array([LEG / 2, LEG / 2, half_height])))
+    return legs
+
+
+def _quaternion(yaw_deg: float) -> list[float]:
+    return list(pybullet.getQuaternionFromEuler([0.0, 0.0, np.deg2rad(yaw_deg)]))
+
+
+class World:
+    """Static tables and obstacles, and the box as a free body (held only by friction when carried)."""
+
+    def __init__(self, client, spec):
+        self.client, self.spec = client, spec
+        self.tables = {t.name: self._table(t) for t in spec.tables}
+        self.obstacles = {o.name: self._obstacle(o) for o in spec.obstacles}
+        self.box = None
+        if spec.box is not None:
+            b = spec.box
+            shape = client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=np.asarray(b.size) / 2)
+            visual = client.createVisualShape(pybullet.GEOM_BOX, halfExtents=np.asarray(b.size) / 2,
+                                              rgbaColor=[0.85, 0.6, 0.3, 1])
+            self.box = client.createMultiBody(b.mass, shape, visual, b.position, _quaternion(b.yaw_deg))
+            client.changeDynamics(self.box, -1, lateralFriction=b.friction)
+
+    def _table(self, t) -> list[int]:
+        c = self.client
+        top_half = [t.top[0] / 2, t.top[1] / 2, t.thickness / 2]
+        colour = [0.55, 0.45, 0.35, 1]
+        top = c.createMultiBody(0, c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=top_half),
+                                c.createVisualShape(pybullet.GEOM_BOX, halfExtents=top_half, rgbaColor=colour),
+                                [*t.position, t.height - t.thickness / 2], _quaternion(t.yaw_deg))
+        c.changeDynamics(top, -1, lateralFriction=t.friction)
+        bodies = [top]
+        for leg in table_legs(t):
+            bodies.append(c.createMultiBody(
+                0, c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=leg.half),
+                c.createVisualShape(pybullet.GEOM_BOX, halfExtents=leg.half, rgbaColor=colour),
+                leg.centre, _quaternion(t.yaw_deg)))
+        return bodies
+
+    def _obstacle(self, o) -> int:
+        c, half, colour = self.client, np.asarray(o.size) / 2, [0.7, 0.2, 0.2, 1]
+        if o.shape == "box":
+            col = c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half)
+            vis = c.createVisualShape(pybullet.GEOM_BOX, halfExtents=half, rgbaColor=colour)
+        elif o.shape == "cylinder":
+            col = c.createCollisionShape(pybullet.GEOM_CYLINDER, radius=half[0], height=o.size[2])
+            vis = c.createVisualShape(pybullet.GEOM_CYLINDER, radius=half[0], length=o.size[2], rgbaColor=colour)
+        else:
+            col = c.createCollisionShape(pybullet.GEOM_SPHERE, radius=half[0])
+            vis = c.createVisualShape(pybullet.GEOM_SPHERE, radius=half[0], rgbaColor=colour)
+        return c.createMultiBody(0, col, vis, o.position, _quaternion(o.yaw_deg))
+
+    def pose(self, name: str) -> tuple[np.ndarray, float]:
+        """Position and yaw of `box` (measured) or of a table (its top's centre)."""
+        if name == "box":
+            position, orientation = self.client.getBasePositionAndOrientation(self.box)
+            return np.array(position), pybullet.getEulerFromQuaternion(orientation)[2]
+        t = next(t for t in self.spec.tables if t.name == name)
+        return np.array([*t.position, t.height]), np.deg2rad(t.yaw_deg)
+
+    def box_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Box centre and its z axis in the world (upright: z axis ~ (0, 0, 1))."""
+        position, orientation = self.client.getBasePositionAndOrientation(self.box)
+        return np.array(position), np.reshape(pybullet.getMatrixFromQuaternion(orientation), (3, 3))[:, 2]
+
+    def clearance(self, body: int, obstacle: str) -> float:
+        """Smallest distance between any part of `body` and an obstacle (negative: penetration), up to FAR."""
+        points = self.client.getClosestPoints(body, self.obstacles[obstacle], FAR)
+        return min((p[8] for p in points), default=FAR)

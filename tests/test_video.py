@@ -1,0 +1,66 @@
+from __future__ import annotations
+
+import imageio.v3 as iio
+import numpy as np
+import pybullet
+import pytest
+from pybullet_utils.bullet_client import BulletClient
+
+from harmony_cli.video import VideoRecorder, frame_every
+
+FRAMES, WIDTH, HEIGHT = 10, 160, 120
+
+
+@pytest.fixture
+def world():
+    """Ground plane plus a red 1 m box that falls a little while recording."""
+    client = BulletClient(connection_mode=pybullet.DIRECT)
+    client.setGravity(0, 0, -9.81)
+    client.createMultiBody(0, client.createCollisionShape(pybullet.GEOM_PLANE))
+    box = client.createMultiBody(
+        1.0, client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=[0.5, 0.5, 0.5]),
+        client.createVisualShape(pybullet.GEOM_BOX, halfExtents=[0.5, 0.5, 0.5], rgbaColor=[0.9, 0.1, 0.1, 1]),
+        basePosition=[0, 0, 1.0])
+    yield client, box
+    client.disconnect()
+
+
+@pytest.mark.parametrize("suffix", [".mp4", ".gif"])
+def test_records_visible_frames(world, tmp_path, suffix):
+    client, box = world
+
+    def follow():
+        return np.array(client.getBasePositionAndOrientation(box)[0])
+
+    with VideoRecorder(client, tmp_path / f"run{suffix}", fps=25, size=(WIDTH, HEIGHT), follow=follow) as video:
+        for _ in range(FRAMES):
+            client.stepSimulation()
+            video.capture()
+    path = video.close()  # idempotent after the context manager closed it
+    assert path == tmp_path / f"run{suffix}" and path.stat().st_size > 0
+    assert client.isConnected()  # the caller still owns the client
+
+    frames = iio.imread(path, index=None)
+    assert frames.shape[:3] == (FRAMES, HEIGHT, WIDTH) and frames.shape[3] in (3, 4)
+    assert all(frame[..., :3].astype(float).var() > 0 for frame in frames)
+
+
+def test_render_is_rgb_uint8_with_the_box_in_view(world, tmp_path):
+    client, _ = world
+    with VideoRecorder(client, tmp_path / "still.gif", size=(WIDTH, HEIGHT)) as video:
+        image = video.render()
+    assert image.dtype == np.uint8 and image.shape == (HEIGHT, WIDTH, 3)
+    red = (image[..., 0] > 150) & (image[..., 1] < 80) & (image[..., 2] < 80)
+    assert red.sum() > 100  # the box, centred by the default target
+
+
+def test_unknown_suffix_names_path_and_choices(world, tmp_path):
+    client, _ = world
+    with pytest.raises(ValueError, match=r"run\.avi.*\.mp4, \.gif"):
+        VideoRecorder(client, tmp_path / "run.avi")
+
+
+def test_frame_every():
+    assert frame_every(0.02, 25) == 2
+    assert frame_every(0.1, 25) == 1  # never fewer than one control step
+    assert frame_every(0.001, 30) == 33
