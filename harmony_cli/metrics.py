@@ -55,20 +55,24 @@ def task_outcome(steps: pd.DataFrame, scenario, hands: list[str]) -> dict:
     goal_error = steps[[f"{h}_goal_error_m" for h in hands]].max(axis=1)
     for index, phase in enumerate(scenario.task.phases):
         rows = steps["phase_index"] == index
-        reached = steps["t"][rows & (goal_error < REACHED)]
+        reached = steps["t"][rows & (goal_error < REACHED + phase.squeeze / 2)]  # a squeeze goal is inside the box
         start = float(steps["t"][rows].min()) if rows.any() else None
         phases.append({"name": phase.name, "start_s": start,
                        "completed_s": float(reached.min()) if len(reached) else None,
                        "final_goal_error_m": float(goal_error[rows].iloc[-1]) if rows.any() else None})
     out["phases"] = phases
+    clear = all(v > 0 for c in clearances.values() for v in c.values())
+    solved = out["planner_failures"] == 0 and bool(steps["success"].astype(bool).all())
+    out |= {"clear_of_obstacles": clear, "all_solves_succeeded": solved}
     box = scenario.world.box
-    if box is not None and "box_x" in steps:
+    if box is None:  # success: every phase's goal reached, never touching an obstacle, no failed solve
+        out["success"] = bool(clear and solved and all(p["completed_s"] is not None for p in phases))
+    elif "box_x" in steps:
         final = steps[["box_x", "box_y", "box_z"]].iloc[-1].to_numpy()
         dropped = bool(steps["dropped"].any())
         error = float(np.linalg.norm(final - np.asarray(box.goal))) if box.goal else None
         upright = float(steps["box_tilt_deg"].iloc[-1]) < UPRIGHT_DEG
-        clear = all(v > 0 for c in clearances.values() for v in c.values())
         out |= {"box_final": final.tolist(), "box_goal_error_m": error, "box_upright": upright,
-                "box_dropped": dropped, "clear_of_obstacles": clear,
+                "box_dropped": dropped,
                 "success": bool(error is not None and error <= GOAL_TOLERANCE and upright and not dropped and clear)}
     return out

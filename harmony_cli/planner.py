@@ -9,8 +9,9 @@ vector across the heading (along the pad normals) and both hands at one height, 
 Start: control points 0 and 1 from the measured positions and velocities; end: the last three at the goal (at
 rest: zero velocity and acceleration). Speed and acceleration bounds on the hodograph control points. Obstacles:
 the signed distance of each hand (and, while carrying, of the object between them) at sample times stays above
-its clearance, linearised at the current plan. Gauss-Newton SQP over the free control points, one DAQP QP per
-iteration: `phase_iterations` at a phase change, `iterations` (1: real-time iteration) on every other step.
+its clearance, linearised at the current plan; the hands keep the goal's distance apart. Gauss-Newton SQP over the
+free control points, one DAQP QP per iteration: `phase_iterations` at a phase change, `iterations` (1: real-time
+iteration) on every other step. When the bounds cannot be met by the phase's end, the horizon is stretched.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from harmony_cli.geometry import Shape
 from harmony_cli.knot_derivatives import Buffered
 
 ROWS = 7  # hand 0 xyz, hand 1 xyz, heading
+STRETCHES = (1.0, 1.5, 2.25, 3.5, 5.0)  # horizon factors tried when the rate bounds cannot be met in time
 
 
 def rot_z(angle: np.ndarray) -> np.ndarray:
@@ -151,17 +153,28 @@ class TaskPlanner:
             tau = np.clip((t - self.t_plan) / self.T_plan, 0.0, 0.99)
             C = self.C @ shift_matrix(M, tau) if tau > 0 else self.C.copy()
             iterations = spec.iterations
-        self._fixed(C, state, goal, heading_goal, T)
+        width = float(np.linalg.norm(goal[1] - goal[0]))
         status, success, clearance, it = "max_iter", True, np.inf, 0
+        # the measured start may not allow reaching the goal at rest within the rate bounds by the phase's end
+        # (the hands lag, the phase is short): then the plan takes longer, and says so
+        for stretch in STRETCHES:
+            self._fixed(C, state, goal, heading_goal, T * stretch)
+            step, clearance, status = self._sqp_step(C, T * stretch, carrying_radius, width)
+            if step is not None:
+                break
+        T *= stretch
+        suffix = f" (horizon stretched x{stretch:g})" if stretch > 1 else ""
         for it in range(1, iterations + 1):
-            step, clearance, status = self._sqp_step(C, T, carrying_radius)
+            if it > 1:
+                step, clearance, status = self._sqp_step(C, T, carrying_radius, width)
             if step is None:
                 success = False
                 break
             C[self.free] += step
             if np.max(np.abs(step)) < spec.tol:
-                status = status.replace("rti_step", "converged")
+                status = "converged"
                 break
+        status += suffix
         if success:
             self.C, self.phase, self.t_plan, self.T_plan = C, phase, t, T
         elif self.C is None:
@@ -169,7 +182,7 @@ class TaskPlanner:
         plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
         return PlannerResult(plan, success, status, it, time.perf_counter() - start_time, clearance)
 
-    def _sqp_step(self, C: np.ndarray, T: float, carrying_radius: float | None):
+    def _sqp_step(self, C: np.ndarray, T: float, carrying_radius: float | None, width: float):
         """One Gauss-Newton QP over the free control points: (step or None, predicted clearance, status)."""
         free = self.free.ravel()
         x = C.ravel()
@@ -184,8 +197,17 @@ class TaskPlanner:
             J_face[:, axis] = -w * h[axis][:, None] * self.B
             J_face[:, 3 + axis] = w * h[axis][:, None] * self.B
         J_face[:, 6] = w * np.sum(d * dh, axis=0)[:, None] * self.B
-        r = np.r_[self.J_lin @ x, r_face]
-        J = np.vstack([self.J_lin, J_face.reshape(psi.size, -1)])[:, free]
+        # grip width: |p_1 - p_0| stays the goal's (a held box is not stretched; hands do not straddle obstacles)
+        across = curves[3:6] - curves[0:3]
+        length = np.maximum(np.linalg.norm(across, axis=0), 1e-9)
+        w = self.spec.weights.width
+        r_width = w * (length - width)
+        J_width = np.zeros((psi.size, ROWS, self.M))
+        for axis in range(3):
+            J_width[:, axis] = -w * (across[axis] / length)[:, None] * self.B
+            J_width[:, 3 + axis] = w * (across[axis] / length)[:, None] * self.B
+        r = np.r_[self.J_lin @ x, r_face, r_width]
+        J = np.vstack([self.J_lin, J_face.reshape(psi.size, -1), J_width.reshape(psi.size, -1)])[:, free]
         H = J.T @ J + 1e-9 * np.eye(self.n_free)
         g = J.T @ r
         limit = self._rate_limits * T**self._rate_order  # D^k P are s-derivatives: time derivative = D^k P / T^k
@@ -209,18 +231,9 @@ class TaskPlanner:
                 uba.append(np.full(psi.size, np.inf))
                 if active:
                     clearance = min(clearance, float(np.min(dist - needed)))
-        lba, uba = np.concatenate(lba), np.concatenate(uba)
-        # the measured start may not allow stopping at the goal within the rate bounds (the hands lag behind the
-        # plan, the phase time runs out): then drop the acceleration bounds, then the speed bounds, and say so
-        n_rate = int(self.keep.sum())
-        acceleration = np.zeros(lba.size, dtype=bool)
-        acceleration[:n_rate] = (self._rate_order == 2)[self.keep]
-        for relaxed, drop in (("", None), (" (acceleration bounds dropped)", acceleration),
-                              (" (rate bounds dropped)", np.arange(lba.size) < n_rate)):
-            if drop is not None:
-                lba, uba = np.where(drop, -np.inf, lba), np.where(drop, np.inf, uba)
-            out = self.qp(h=H, g=g, a=np.vstack(rows), lba=lba, uba=uba, lbx=-np.inf, ubx=np.inf)
-            stats = self.qp.stats()
-            if stats["success"]:
-                return out["x"].copy(), clearance, "rti_step" + relaxed
+        out = self.qp(h=H, g=g, a=np.vstack(rows), lba=np.concatenate(lba), uba=np.concatenate(uba),
+                      lbx=-np.inf, ubx=np.inf)
+        stats = self.qp.stats()
+        if stats["success"]:
+            return out["x"].copy(), clearance, "rti_step"
         return None, clearance, f"qp_failed: {stats.get('return_status', '?')}"

@@ -27,8 +27,10 @@ class RobotSpec(Strict):
     end_effectors: dict[str, str] = Field(
         default_factory=lambda: {"left": "LARM_grasp", "right": "RARM_grasp"},
         description="hand label -> end-effector link (the frame every MPC controls)")
-    base_joints: list[str] = Field(["base_x", "base_y", "base_yaw"],
-                                   description="virtual planar base joints, commanded by velocity")
+    base_joints: list[str] = Field(["base_x", "base_y", "base_yaw"], min_length=3, max_length=3,
+                                   description="virtual planar base joints x, y, yaw, commanded by velocity; added "
+                                               "(prismatic, prismatic, revolute) when the URDF has none of them")
+    package_paths: list[str] = Field([], description="where package:// mesh URIs resolve (relative to the file)")
     pinned_joints: list[str] = Field(["HEAD_JOINT0", "HEAD_JOINT1"], description="held at home in every MPC")
     chest_joints: list[str] = Field(["CHEST_JOINT0"], description="torso joints (regularised towards 0)")
     mirrored_joints: list[tuple[str, str]] = Field([("LARM_JOINT0", "RARM_JOINT0")],
@@ -87,6 +89,7 @@ class PlannerWeights(Strict):
     acceleration: float = Field(0.02, ge=0, description="second differences of the control points")
     level: float = Field(1.0, ge=0, description="both hands at one height, at every control point")
     facing: float = Field(3.0, ge=0, description="inter-hand vector across the heading (pads face each other)")
+    width: float = Field(3.0, ge=0, description="distance between the hands stays the goal's (grip width)")
 
 
 class PlannerSpec(Strict):
@@ -144,6 +147,8 @@ class BoxSpec(Strict):
     position: Vector3 = Field(description="centre [m]")
     yaw_deg: float = 0.0
     friction: PositiveFloat = 0.8
+    spinning_friction: float = Field(0.05, ge=0, description="torsional friction about a contact normal [m]: "
+                                                            "keeps the box from pivoting between the pads")
     goal: Vector3 | None = Field(None, description="where the box should end (centre) [m]; success within 5 cm")
 
 
@@ -292,7 +297,10 @@ def _check_robot(path: Path, scenario: Scenario) -> None:
         if link not in links:
             raise ScenarioError(f"{path}: robot.end_effectors.{hand}: {link!r} is not a link of {urdf.name}; "
                                 f"links: {', '.join(sorted(links))}")
-    named = {"base_joints": scenario.robot.base_joints, "pinned_joints": scenario.robot.pinned_joints,
+    base = scenario.robot.base_joints
+    if not set(base) & joints:  # none of them: prepare_urdf adds all three
+        joints = joints | set(base)
+    named = {"base_joints": base, "pinned_joints": scenario.robot.pinned_joints,
              "chest_joints": scenario.robot.chest_joints,
              "mirrored_joints": [j for pair in scenario.robot.mirrored_joints for j in pair],
              "home_deg": list(scenario.robot.home_deg)}

@@ -65,8 +65,8 @@ class Simulation:
         self.others = [i for i in range(robot.n_dof) if i not in robot.base_joints]
         for i, j in enumerate(self.joints):
             self.client.resetJointState(self.body, j, robot.home[i], 0.0)
-        for link in range(-1, self.client.getNumJoints(self.body)):
-            self.client.changeDynamics(self.body, link, lateralFriction=1.0)
+        for link in range(-1, self.client.getNumJoints(self.body)):  # Bullet multiplies the two bodies' values
+            self.client.changeDynamics(self.body, link, lateralFriction=1.0, spinningFriction=1.0)
         self.world = World(self.client, world) if world is not None else None
         self.time = 0.0
 

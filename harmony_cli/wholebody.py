@@ -93,11 +93,12 @@ def build_problem(robot: Robot, transcription, weights, chest_joints, mirrored_j
     linear = {
         "chest_yaw": np.sqrt(weights.chest_yaw / K) * q[chest, :],
         "arm_symmetry": np.sqrt(weights.arm_symmetry / K) * cs.vertcat(
-            *[q[robot.index(a), :] + q[robot.index(b), :] for a, b in mirrored_joints]),
+            cs.SX(0, K), *[q[robot.index(a), :] + q[robot.index(b), :] for a, b in mirrored_joints]),
         "posture": np.sqrt(weights.posture / K) * (q[arms, :] - home),
         "velocity": np.sqrt(weights.velocity / K) * dq[moving, :],
         "acceleration": np.sqrt(weights.acceleration / ddq.shape[1]) * ddq[moving, :],
     }
+    linear = {name: r for name, r in linear.items() if r.numel() > 0}  # e.g. a robot without a chest joint
     for name, r in linear.items():
         builder.add_cost_term(name, cs.sumsqr(r))
     optimization = builder.build()

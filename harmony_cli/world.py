@@ -58,7 +58,7 @@ class World:
             visual = client.createVisualShape(pybullet.GEOM_BOX, halfExtents=np.asarray(b.size) / 2,
                                               rgbaColor=[0.85, 0.6, 0.3, 1])
             self.box = client.createMultiBody(b.mass, shape, visual, b.position, _quaternion(b.yaw_deg))
-            client.changeDynamics(self.box, -1, lateralFriction=b.friction)
+            client.changeDynamics(self.box, -1, lateralFriction=b.friction, spinningFriction=b.spinning_friction)
 
     def _table(self, t) -> list[int]:
         c = self.client

@@ -48,7 +48,7 @@ BASE = "name: x\nrobot: {urdf: URDF}\nreference: {type: hold}\n"
     (BASE + "mpc: {knots: 1}\n", ["mpc.knots", "1", "greater than or equal to 2"]),
     ("name: x\nrobot: {urdf: URDF}\nreference: {type: circle}\n", ["reference.type", "'circle'", "'s_curve'", "'hold'"]),
     ("name: x\nrobot: {urdf: URDF}\n", ["reference", "missing"]),
-    ("name: x\nrobot: {urdf: URDF, base_joints: [base_z]}\nreference: {type: hold}\n",
+    ("name: x\nrobot: {urdf: URDF, base_joints: [base_x, base_y, base_z]}\nreference: {type: hold}\n",
      ["robot.base_joints", "'base_z'", "base_x"]),
     ("name: x\nrobot: {urdf: nowhere.urdf}\nreference: {type: hold}\n", ["robot.urdf", "nowhere.urdf"]),
     ("name: [unclosed\n", ["not valid YAML"]),

@@ -1,0 +1,164 @@
+"""The task-space planner (MPC-T): both hands from their measured state to the phase goal at rest."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from harmony_cli.bezier import difference_matrix, evaluate
+from harmony_cli.geometry import Shape
+from harmony_cli.planner import HandState, Obstacle, TaskPlanner
+from harmony_cli.scenario import PlannerSpec
+
+SPEC = PlannerSpec()
+HOME = np.stack([np.eye(3), np.eye(3)])
+OFFSET = np.pi / 2  # hand 0 at +y, hand 1 at -y: heading 0 faces +x
+START = np.array([[0.76, 0.15, 0.93], [0.76, -0.15, 0.93]])
+GOAL = START + [2.0, 0.0, 0.0]
+PHASE_END = 5.0
+CLEARANCE, CARRYING = 0.13, 0.2
+
+
+def _cylinder(y: float) -> Obstacle:
+    return Obstacle(Shape("cylinder", np.array([1.7, y, 1.0]), 0.0, np.array([0.3, 0.3, 1.0])), CLEARANCE)
+
+
+def _plan(obstacles=(), goal=GOAL, phase_end=PHASE_END, carrying=None):
+    planner = TaskPlanner(SPEC, list(obstacles), HOME, OFFSET)
+    result = planner.step(0.0, HandState(START, np.zeros((2, 3)), 0.0), goal, phase_end, 0, carrying)
+    return planner, result
+
+
+def _headings(rotations: np.ndarray) -> np.ndarray:
+    """Heading of hand 0 (home rotations are the identity, so R = Rz(heading))."""
+    return np.arctan2(rotations[:, 0, 1, 0], rotations[:, 0, 0, 0])
+
+
+def _speed_limits() -> np.ndarray:
+    return np.r_[SPEC.max_speed, SPEC.max_speed, SPEC.max_yaw_rate]
+
+
+def test_free_space_plan_starts_at_the_hands_and_ends_at_rest_at_the_goal_within_the_speed_bounds():
+    _, result = _plan()
+    assert result.success
+    plan = result.plan
+    C, T = plan.control_points, plan.horizon
+    assert plan.start == 0.0 and T == PHASE_END
+    positions, rotations = plan.sample(np.array([0.0, PHASE_END]))
+    np.testing.assert_allclose(positions[0], START, atol=1e-12)
+    np.testing.assert_allclose(positions[1], GOAL, atol=1e-9)
+    np.testing.assert_allclose(_headings(rotations), 0.0, atol=1e-9)
+    for order in (1, 2):
+        np.testing.assert_allclose(evaluate(C, [1.0], order, T), 0.0, atol=1e-6)
+    hodograph = C @ difference_matrix(C.shape[1], 1, T).T  # bounds every velocity of the curve
+    assert np.all(np.abs(hodograph) <= _speed_limits()[:, None] + 1e-6)
+
+
+def test_free_space_plan_keeps_the_hands_level_and_across_the_heading():
+    _, result = _plan()
+    positions, rotations = result.plan.sample(np.linspace(0.0, PHASE_END, 50))
+    np.testing.assert_allclose(positions[:, 0, 2], positions[:, 1, 2], atol=1e-3)
+    across = positions[:, 1, :2] - positions[:, 0, :2]
+    psi = _headings(rotations)
+    heading = np.stack([np.cos(psi), np.sin(psi)], axis=1)
+    np.testing.assert_allclose(np.sum(across * heading, axis=1), 0.0, atol=1e-3)
+
+
+def _clearances(plan, obstacle: Obstacle, samples: int = 200) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Signed distance minus the required clearance of hand 0, hand 1 and the carried object (midpoint)."""
+    positions, _ = plan.sample(np.linspace(plan.start, plan.start + plan.horizon, samples))
+    distance = obstacle.shape.distance
+    return (distance(positions[:, 0])[0] - obstacle.clearance, distance(positions[:, 1])[0] - obstacle.clearance,
+            distance(positions.mean(axis=1))[0] - obstacle.clearance - CARRYING)
+
+
+def _assert_plan_goes_around(obstacle: Obstacle):
+    straight = START + np.linspace(0.0, 1.0, 200)[:, None, None] * (GOAL - START)
+    assert np.min(obstacle.shape.distance(straight.mean(axis=1))[0]) < obstacle.clearance + CARRYING  # premise
+    assert np.min(obstacle.shape.distance(straight.reshape(-1, 3))[0]) < obstacle.clearance  # premise
+    _, result = _plan([obstacle], carrying=CARRYING)
+    assert result.success
+    for margin in _clearances(result.plan, obstacle):
+        assert np.min(margin) >= -5e-3
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "planner bug: with the obstacle centred on the straight path, the carried object's midpoint starts on the "
+    "cylinder axis, where the linearised distance only pushes it along the path; the QP needs the rate bounds "
+    "dropped and returns success with control points from x = -5.6 to 8.2 m that jump over the cylinder between "
+    "the 20 constraint samples (hands 0.27 m, midpoint 0.57 m inside their clearance at 200 samples)"))
+def test_carrying_plan_keeps_hands_and_object_clear_of_a_cylinder_on_the_straight_path():
+    _assert_plan_goes_around(_cylinder(0.0))
+
+
+def test_carrying_plan_keeps_hands_and_object_clear_of_a_cylinder_beside_the_straight_path():
+    _assert_plan_goes_around(_cylinder(-0.2))
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "planner bug: nothing keeps the grip width while carrying; with the cylinder 5 cm off the straight path the "
+    "plan sends hand 0 past one side (y up to 0.48) and hand 1 past the other (y down to -1.63), 2.1 m apart, "
+    "and hand 1 at 1.57 m/s (rate bounds dropped), to move the midpoint clear"))
+def test_carrying_plan_keeps_the_grip_width_around_a_cylinder_near_the_straight_path():
+    _, result = _plan([_cylinder(0.05)], carrying=CARRYING)
+    positions, _ = result.plan.sample(np.linspace(0.0, PHASE_END, 200))
+    width = np.linalg.norm(positions[:, 1] - positions[:, 0], axis=1)
+    np.testing.assert_allclose(width, np.linalg.norm(START[1] - START[0]), atol=0.02)
+
+
+@pytest.mark.parametrize("obstacles", [[], [_cylinder(-0.2)]], ids=["free", "cylinder"])
+def test_replan_from_the_plan_s_own_state_continues_the_same_plan(obstacles):
+    planner, first = _plan(obstacles, carrying=CARRYING)
+    t = 0.02
+    positions, rotations = first.plan.sample(np.array([t]))
+    rates = first.plan.rates(t)
+    state = HandState(positions[0], rates[:6].reshape(2, 3), float(_headings(rotations)[0]), float(rates[6]))
+    second = planner.step(t, state, GOAL, PHASE_END, 0, CARRYING)
+    assert second.success and second.plan.start == t
+    times = np.linspace(t, PHASE_END, 100)
+    np.testing.assert_allclose(second.plan.sample(times)[0], first.plan.sample(times)[0], rtol=0, atol=0.02)
+
+
+@pytest.mark.parametrize("obstacles", [[], [_cylinder(-0.2)]], ids=["free", "cylinder"])
+def test_plan_rates_equal_central_differences_of_the_sampled_plan(obstacles):
+    _, result = _plan(obstacles, carrying=CARRYING)
+    plan, h = result.plan, 1e-6
+    for t in (0.0 + 2 * h, 0.7, 2.5, 4.9):
+        (p_plus, p_minus), (r_plus, r_minus) = plan.sample(np.array([t + h, t - h]))
+        fd = np.r_[((p_plus - p_minus) / (2 * h)).ravel(),
+                   (_headings(np.array([r_plus]))[0] - _headings(np.array([r_minus]))[0]) / (2 * h)]
+        np.testing.assert_allclose(plan.rates(t), fd, rtol=0, atol=1e-7)
+    np.testing.assert_array_equal(plan.rates(PHASE_END + 0.1), 0.0)
+
+
+def _goal_with_raw_heading(raw: float) -> np.ndarray:
+    """Two hand goals whose inter-hand direction + OFFSET is `raw` (mod 2 pi)."""
+    angle = raw - OFFSET
+    return np.array([[1.0, 0.0, 1.0], [1.0 + 0.3 * np.cos(angle), 0.3 * np.sin(angle), 1.0]])
+
+
+def test_goal_heading_unwraps_to_the_heading_nearest_the_current_one():
+    planner = TaskPlanner(SPEC, [], HOME, OFFSET)
+    assert planner.goal_heading(_goal_with_raw_heading(-3.0), 3.0) == pytest.approx(2 * np.pi - 3.0, abs=1e-12)
+    assert planner.goal_heading(_goal_with_raw_heading(3.0), -3.0) == pytest.approx(3.0 - 2 * np.pi, abs=1e-12)
+    rng = np.random.default_rng(3)
+    for raw, now in rng.uniform(-10, 10, (50, 2)):
+        heading = planner.goal_heading(_goal_with_raw_heading(raw), now)
+        assert abs(heading - now) <= np.pi + 1e-12
+        assert np.cos(heading - raw) == pytest.approx(1.0, abs=1e-12)
+
+
+@pytest.mark.parametrize("distance", [2.0, 0.5])
+def test_phase_too_short_for_the_bounds_stretches_the_horizon_and_keeps_the_speed_bounds(distance):
+    remaining = 0.3  # < min_horizon: the plan gets min_horizon, then more
+    T = SPEC.min_horizon
+    # premise: at rest at both ends, covering `distance` in T needs a peak acceleration of at least 4 distance / T^2
+    assert 4 * distance / T**2 > SPEC.max_acceleration[0]
+    goal = START + [distance, 0.0, 0.0]
+    _, result = _plan(goal=goal, phase_end=remaining)
+    assert result.success and "horizon stretched" in result.status
+    horizon = result.plan.horizon
+    assert horizon > T
+    C = result.plan.control_points
+    assert np.all(np.abs(C @ difference_matrix(C.shape[1], 1, horizon).T) <= _speed_limits()[:, None] + 1e-6)
+    np.testing.assert_allclose(result.plan.sample(np.array([horizon]))[0][0], goal, atol=1e-9)
