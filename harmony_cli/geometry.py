@@ -21,6 +21,11 @@ class Shape:
     yaw: float
     half: np.ndarray
 
+    def grown(self, radius: float) -> Shape:
+        """This shape grown sideways (x, y) by `radius` (a sphere in every direction)."""
+        grow = np.full(3, radius) if self.kind == "sphere" else np.array([radius, radius, 0.0])
+        return Shape(self.kind, self.centre, self.yaw, self.half + grow)
+
     def _to_local(self, points: np.ndarray) -> np.ndarray:
         c, s = np.cos(self.yaw), np.sin(self.yaw)
         d = np.atleast_2d(points) - self.centre

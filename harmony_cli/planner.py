@@ -138,8 +138,13 @@ class TaskPlanner:
         return heading_now + (heading - heading_now + np.pi) % (2 * np.pi) - np.pi  # nearest to heading_now
 
     def step(self, t: float, state: HandState, goal: np.ndarray, phase_end: float, phase: int,
-             carrying_radius: float | None = None) -> PlannerResult:
-        """Re-plan at time t towards `goal` (2, 3) for phase number `phase` ending at `phase_end`."""
+             carrying_radius: float | None = None, carrying_drop: float = 0.0) -> PlannerResult:
+        """Re-plan at time t towards `goal` (2, 3) for phase number `phase` ending at `phase_end`.
+
+        While carrying, the object is the point `carrying_drop` below the hands' midpoint (its bottom centre)
+        kept clear of every obstacle grown sideways by `carrying_radius` (its half diagonal): a box-like object
+        over a flat-topped obstacle needs its bottom above the top, not a sphere's worth above it."""
+        carried = None if carrying_radius is None else (carrying_radius, carrying_drop)
         start_time = time.perf_counter()
         spec, M = self.spec, self.M
         T = max(phase_end - t, spec.min_horizon)
@@ -159,14 +164,14 @@ class TaskPlanner:
         # (the hands lag, the phase is short): then the plan takes longer, and says so
         for stretch in STRETCHES:
             self._fixed(C, state, goal, heading_goal, T * stretch)
-            step, clearance, status = self._sqp_step(C, T * stretch, carrying_radius, width)
+            step, clearance, status = self._sqp_step(C, T * stretch, carried, width)
             if step is not None:
                 break
         T *= stretch
         suffix = f" (horizon stretched x{stretch:g})" if stretch > 1 else ""
         for it in range(1, iterations + 1):
             if it > 1:
-                step, clearance, status = self._sqp_step(C, T, carrying_radius, width)
+                step, clearance, status = self._sqp_step(C, T, carried, width)
             if step is None:
                 success = False
                 break
@@ -182,7 +187,7 @@ class TaskPlanner:
         plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
         return PlannerResult(plan, success, status, it, time.perf_counter() - start_time, clearance)
 
-    def _sqp_step(self, C: np.ndarray, T: float, carrying_radius: float | None, width: float):
+    def _sqp_step(self, C: np.ndarray, T: float, carried: tuple[float, float] | None, width: float):
         """One Gauss-Newton QP over the free control points: (step or None, predicted clearance, status)."""
         free = self.free.ravel()
         x = C.ravel()
@@ -215,13 +220,15 @@ class TaskPlanner:
         rows = [self.A[self.keep][:, free]]
         lba, uba = [(-limit - Ax)[self.keep]], [(limit - Ax)[self.keep]]
         clearance = np.inf
-        points = [curves[0:3].T, curves[3:6].T, 0.5 * (curves[0:3] + curves[3:6]).T]
+        object_point = 0.5 * (curves[0:3] + curves[3:6]).T - [0.0, 0.0, carried[1] if carried else 0.0]
+        points = [curves[0:3].T, curves[3:6].T, object_point]
         weights = [(1.0, 0.0), (0.0, 1.0), (0.5, 0.5)]
         for obstacle in self.obstacles:
             for k, (p, (w0, w1)) in enumerate(zip(points, weights)):
-                dist, grad = obstacle.shape.distance(p)
-                needed = obstacle.clearance if k < 2 else obstacle.clearance + (carrying_radius or 0.0)
-                active = k < 2 or carrying_radius is not None
+                active = k < 2 or carried is not None
+                shape = obstacle.shape if k < 2 or not active else obstacle.shape.grown(carried[0])
+                dist, grad = shape.distance(p)
+                needed = obstacle.clearance
                 row = np.zeros((psi.size, ROWS, self.M))
                 for axis in range(3):
                     row[:, axis] = w0 * grad[:, axis][:, None] * self.B

@@ -147,7 +147,7 @@ class BoxSpec(Strict):
     position: Vector3 = Field(description="centre [m]")
     yaw_deg: float = 0.0
     friction: PositiveFloat = 0.8
-    spinning_friction: float = Field(0.05, ge=0, description="torsional friction about a contact normal [m]: "
+    spinning_friction: float = Field(0.1, ge=0, description="torsional friction about a contact normal [m]: "
                                                             "keeps the box from pivoting between the pads")
     goal: Vector3 | None = Field(None, description="where the box should end (centre) [m]; success within 5 cm")
 

@@ -10,7 +10,7 @@ from harmony_cli.robot import Robot
 from harmony_cli.tasks import Schedule
 from harmony_cli.world import obstacle_shape
 
-DROP_DISTANCE = 0.12  # [m] box centre this far from the hands' midpoint while held: dropped
+DROP_AFTER = 0.1  # [s] a held box without any contact with the robot for this long: dropped
 
 
 def heading_of(rotations: np.ndarray, home_rotations: np.ndarray) -> float:
@@ -34,8 +34,9 @@ class TaskReferences:
         self.planner = TaskPlanner(scenario.planner, obstacles, self.home_rotations, offset)
         box = scenario.world.box
         self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
+        self.box_drop = None  # the box's bottom below the hands' midpoint, measured when the grasp begins
         self.phase, self.goal, self.result, self.step_count = None, None, None, 0
-        self.dropped_at = None
+        self.dropped_at, self.loose_since = None, None
 
     def __call__(self, t: float, obs, knot_times: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict]:
         active = self.schedule.at(t)
@@ -55,8 +56,11 @@ class TaskReferences:
                 state = HandState(obs.hand_positions, rates[:6].reshape(2, 3), heading, rates[6])
             else:
                 state = HandState(obs.hand_positions, obs.hand_velocities, heading, obs.heading_rate)
+            if holding and self.box_drop is None:
+                centre, _ = self.world.box_state()
+                self.box_drop = obs.hand_positions[:, 2].mean() - (centre[2] - self.scenario.world.box.size[2] / 2)
             self.result = self.planner.step(t, state, self.goal, active.end, active.index,
-                                            self.box_radius if holding else None)
+                                            self.box_radius if holding else None, self.box_drop or 0.0)
             row |= {"planner_ms": 1e3 * self.result.solve_time, "planner_status": self.result.status,
                     "planner_success": self.result.success, "planner_iterations": self.result.iterations}
         self.step_count += 1
@@ -70,8 +74,11 @@ class TaskReferences:
     def _watch_box(self, t: float, obs, holding: bool) -> dict:
         centre, z_axis = self.world.box_state()
         from_hands = float(np.linalg.norm(centre - obs.hand_positions.mean(axis=0)))
-        if holding and from_hands > DROP_DISTANCE and self.dropped_at is None:
+        touching = self.world.touching(self.world.box, self.sim.body)
+        self.loose_since = None if touching or not holding else (self.loose_since if self.loose_since is not None
+                                                                  else t)
+        if self.loose_since is not None and t - self.loose_since >= DROP_AFTER and self.dropped_at is None:
             self.dropped_at = t
         return {"box_x": centre[0], "box_y": centre[1], "box_z": centre[2], "box_tilt_deg":
                 float(np.degrees(np.arccos(np.clip(z_axis[2], -1, 1)))), "box_from_hands_m": from_hands,
-                "dropped": self.dropped_at is not None}
+                "box_touches_robot": touching, "dropped": self.dropped_at is not None}

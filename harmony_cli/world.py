@@ -102,6 +102,9 @@ class World:
         position, orientation = self.client.getBasePositionAndOrientation(self.box)
         return np.array(position), np.reshape(pybullet.getMatrixFromQuaternion(orientation), (3, 3))[:, 2]
 
+    def touching(self, body: int, other: int) -> bool:
+        return len(self.client.getContactPoints(bodyA=body, bodyB=other)) > 0
+
     def clearance(self, body: int, obstacle: str) -> float:
         """Smallest distance between any part of `body` and an obstacle (negative: penetration), up to FAR."""
         points = self.client.getClosestPoints(body, self.obstacles[obstacle], FAR)
