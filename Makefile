@@ -25,10 +25,16 @@ test-slow: $(STAMP)
 bench: $(STAMP)
 	$(HARMONY) bench --scenario $(TABLE1) --out results/bench/bench.json
 
-# Table 1 (IPOPT to convergence) + the extended table with real-time iteration, one run at a time.
+EXPERIMENTS := pick_and_carry static_obstacles narrow_passage
+
+# Table 1 (IPOPT to convergence) + the extended table with real-time iteration, one run at a time; then the
+# two-stage experiments (each with a video) and their results table.
 reproduce-paper: $(STAMP)
 	$(HARMONY) compare $(TABLE1) --grid solver.name=ipopt,rti --grid mpc.transcription=traditional,bezier \
 		--grid mpc.knots=6,26 --jobs 1 --out results/paper --name table1 --main-solver ipopt
+	for e in $(EXPERIMENTS); do \
+		$(HARMONY) run scenarios/paper/$$e.yaml --out results/paper/runs/$$e --video || exit 1; done
+	$(HARMONY) experiments $(addprefix results/paper/runs/,$(EXPERIMENTS)) --out results/paper
 
 clean:
 	rm -rf results/runs results/compare results/bench results/paper/runs .pytest_cache .hypothesis

@@ -103,16 +103,34 @@ def schema():
 
 
 @app.command()
+def experiments(runs: List[Path] = typer.Argument(..., help="Run directories of task scenarios"),
+                out: Path = typer.Option(Path("results/paper")), name: str = typer.Option("experiments")):
+    """Results table (md, csv) of two-stage task runs, with their top-down plots and a video frame each."""
+    from harmony_cli.experiments import experiments_report
+
+    missing = [str(r) for r in runs if not (r / "summary.json").exists()]
+    if missing:
+        _fail(f"not run directories (no summary.json): {', '.join(missing)}")
+    for path in experiments_report(list(runs), out, name):
+        typer.echo(path)
+
+
+@app.command()
 def bench(scenario: Path = typer.Option(Path("scenarios/paper/table1_s_shape.yaml")),
           knots: List[int] = typer.Option([6, 26]), solver: List[str] = typer.Option(["ipopt", "gauss_newton", "rti"]),
           steps: int = typer.Option(250, help="Control steps per configuration"),
           start: float = typer.Option(8.0, help="Reference time of the first step [s]"),
-          out: Optional[Path] = typer.Option(Path("results/bench/bench.json"))):
-    """Whole-body MPC solve time: both transcriptions x K x solver modes, side by side, with ratios."""
-    from harmony_cli.bench import run_bench
+          out: Optional[Path] = typer.Option(Path("results/bench/bench.json")),
+          loop: Optional[Path] = typer.Option(Path("scenarios/paper/pick_and_carry.yaml"),
+                                              help="Two-stage task scenario whose full loop is timed ('' to skip)")):
+    """Whole-body MPC solve time: both transcriptions x K x solver modes, side by side, with ratios; then the
+    full loop (planner + whole-body MPC) of a task scenario, closed loop in PyBullet."""
+    from harmony_cli.bench import run_bench, run_loop_bench
     from harmony_cli.solvers import SolverUnavailable
 
     try:
         run_bench(scenario, list(knots), list(solver), steps, start, out)
+        if loop and str(loop):
+            run_loop_bench(loop, out.with_name("loop.json") if out else None)
     except (ScenarioError, SolverUnavailable) as exc:
         _fail(str(exc))

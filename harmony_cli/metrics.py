@@ -35,7 +35,7 @@ def summarise(steps: pd.DataFrame, hands: list[str]) -> dict:
 
 GOAL_TOLERANCE = 0.05  # [m] box centre from its goal
 UPRIGHT_DEG = 10.0
-REACHED = 0.02  # [m] both hands this close to their phase goal: the phase is complete
+REACHED = 0.03  # [m] both hands this close to their phase goal: the phase is complete
 
 
 def task_outcome(steps: pd.DataFrame, scenario, hands: list[str]) -> dict:

@@ -1,0 +1,89 @@
+"""The two MPCs in series, closed loop in PyBullet: a robot other than EVA, a box held by friction, the video,
+and the experiments report."""
+
+import json
+
+import imageio.v2 as imageio
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from harmony_cli.cli import app
+
+from conftest import ROOT
+
+runner = CliRunner()
+TWIN = ROOT / "scenarios" / "smoke" / "twin_arm_turn.yaml"
+BOX = ROOT / "scenarios" / "smoke" / "box_lift.yaml"
+PAPER = ROOT / "scenarios" / "paper"
+
+
+@pytest.fixture(scope="module")
+def twin_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("twin") / "run"
+    result = runner.invoke(app, ["run", str(TWIN), "--out", str(out), "--quiet"])
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_a_robot_other_than_eva_runs_the_two_stage_loop_and_turns_to_its_goal(twin_run):
+    summary = json.loads((twin_run / "summary.json").read_text())
+    task = summary["task"]
+    assert summary["status"] == "completed" and summary["n_dof"] == 13  # 10 arm joints + the added base
+    assert task["success"] and task["planner_failures"] == 0 and summary["failed_solves"] == 0
+    assert all(p["completed_s"] is not None for p in task["phases"])
+    assert task["base_yaw_range_deg"] > 60  # the hands' goal faces +y: the base turns
+    steps = pd.read_csv(twin_run / "steps.csv")
+    assert {"loop_ms", "planner_ms", "planner_status", "phase", "left_goal_error_m"} <= set(steps.columns)
+    assert (twin_run / "top_down.png").exists()
+
+
+def test_the_box_is_lifted_by_friction_alone_and_never_dropped(tmp_path):
+    out = tmp_path / "run"
+    result = runner.invoke(app, ["run", str(BOX), "--out", str(out), "--quiet"])
+    assert result.exit_code == 0, result.output
+    steps = pd.read_csv(out / "steps.csv")
+    assert not steps["dropped"].any()
+    held = steps[steps["holding"]]
+    assert held["box_touches_robot"].all()
+    assert steps["box_z"].iloc[-1] - steps["box_z"].iloc[0] > 0.08  # lifted (the goal: 12 cm)
+    assert held["box_tilt_deg"].max() < 20
+
+
+def test_video_is_written_headless_with_one_frame_per_tenth_of_a_second(tmp_path):
+    video = tmp_path / "run.gif"
+    result = runner.invoke(app, ["run", str(TWIN), "--out", str(tmp_path / "run"), "--quiet",
+                                 "--set", "sim.duration=1.0", "--video-file", str(video)])
+    assert result.exit_code == 0, result.output
+    frames = imageio.mimread(video)
+    assert len(frames) == 10 and frames[0].shape[:2] == (360, 480)
+    assert np.std(frames[-1]) > 0
+
+
+def test_experiments_report_tabulates_runs_with_their_plots(twin_run, tmp_path):
+    result = runner.invoke(app, ["experiments", str(twin_run), "--out", str(tmp_path), "--name", "exp"])
+    assert result.exit_code == 0, result.output
+    table = pd.read_csv(tmp_path / "exp.csv")
+    assert table["experiment"].tolist() == ["twin_arm_turn"] and bool(table["success"].iloc[0])
+    assert "twin_arm_turn" in (tmp_path / "exp.md").read_text()
+    assert (tmp_path / "twin_arm_turn_top_down.png").exists()
+
+
+def test_experiments_report_names_a_directory_that_is_not_a_run(tmp_path):
+    result = runner.invoke(app, ["experiments", str(tmp_path)])
+    assert result.exit_code == 2 and "no summary.json" in result.output
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["pick_and_carry", "static_obstacles", "narrow_passage"])
+def test_paper_experiment_succeeds_closed_loop(name, tmp_path):
+    out = tmp_path / name
+    result = runner.invoke(app, ["run", str(PAPER / f"{name}.yaml"), "--out", str(out), "--quiet"])
+    assert result.exit_code == 0, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    task = summary["task"]
+    assert task["success"], task
+    assert all(v > 0 for c in task["min_clearance_m"].values() for v in c.values())
+    if name == "narrow_passage":
+        assert task["base_yaw_range_deg"] > 45 and task["planner_failures"] == 0 and summary["failed_solves"] == 0
