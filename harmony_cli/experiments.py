@@ -4,12 +4,12 @@ from run directories only."""
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 import pandas as pd
 
 from harmony_cli.metrics import task_outcome
+from harmony_cli.plots import plot_top_down
 from harmony_cli.scenario import load_scenario
 
 
@@ -67,9 +67,11 @@ def experiments_report(dirs: list[Path], out: Path, name: str = "experiments") -
                           f"{meta.get('cpu', '?')}, one run at a time; loop = planner + whole-body MPC, observation "
                           f"to command.\n")
     for d in dirs:
-        label = json.loads((d / "summary.json").read_text())["name"]
-        if (d / "top_down.png").exists():
-            written.append(Path(shutil.copy(d / "top_down.png", out / f"{label}_top_down.png")))
+        scenario = load_scenario(d / "scenario.resolved.yaml")
+        plot_top_down(out, pd.read_csv(d / "steps.csv"), scenario, list(scenario.robot.end_effectors),
+                      name=f"{scenario.name}_top_down.png")
+        written.append(out / f"{scenario.name}_top_down.png")
+        label = scenario.name
         still = _frame(d / "video.mp4", out / f"{label}_frame.png")
         if still:
             written.append(still)

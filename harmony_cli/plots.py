@@ -64,8 +64,8 @@ def plot_comparison(out: Path, runs: dict[str, pd.DataFrame], hands: list[str], 
     return paths
 
 
-def plot_top_down(out: Path, steps: pd.DataFrame, scenario, hands: list[str], joints: list[str]) -> None:
-    """top_down.png: base footprint outlines every 2 s, base and hand paths, tables, obstacles, box start/goal."""
+def plot_top_down(out: Path, steps: pd.DataFrame, scenario, hands: list[str], name: str = "top_down.png") -> None:
+    """Base footprint every 2 s, base and hand paths, tables, obstacles, box path and goal (top-down)."""
     import numpy as np
     from matplotlib.patches import Circle, Polygon
 
@@ -87,12 +87,12 @@ def plot_top_down(out: Path, steps: pd.DataFrame, scenario, hands: list[str], jo
         ax.annotate(o.name, shape.centre[:2], ha="center", fontsize=7)
     bx, by, byaw = (steps[f"q_{j}"].to_numpy() for j in scenario.robot.base_joints)
     ax.plot(bx, by, color="grey", lw=1.5, label="base")
-    length, width = 1.007, 0.707  # outline drawn for orientation only
+    footprint = np.array(scenario.robot.footprint)  # the circles the whole-body MPC keeps clear, every 2 s
     for i in range(0, len(steps), max(1, int(round(2.0 / scenario.sim.control_dt)))):
         c, s = np.cos(byaw[i]), np.sin(byaw[i])
-        corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * [length / 2, width / 2]
-        ax.add_patch(Polygon([bx[i], by[i]] + corners @ np.array([[c, s], [-s, c]]), closed=True, fill=False,
-                             ec="grey", lw=0.5, alpha=0.6))
+        for x, y, r in footprint:
+            ax.add_patch(Circle((bx[i] + c * x - s * y, by[i] + s * x + c * y), r, fill=False, ec="grey", lw=0.4,
+                                alpha=0.5))
     for hand in hands:
         ax.plot(steps[f"{hand}_meas_x"], steps[f"{hand}_meas_y"], lw=1, label=f"{hand} hand")
     if "box_x" in steps:
@@ -102,4 +102,4 @@ def plot_top_down(out: Path, steps: pd.DataFrame, scenario, hands: list[str], jo
     ax.set(xlabel="x [m]", ylabel="y [m]", title=f"{scenario.name}: top-down", aspect="equal")
     ax.autoscale_view()
     ax.legend(fontsize=8, loc="best")
-    _save(fig, out / "top_down.png")
+    _save(fig, out / name)

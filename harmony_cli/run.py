@@ -159,5 +159,5 @@ def run_scenario(path: str | Path, overrides: list[str] = (), out: Path | None =
             plot_run(out, steps, list(robot.hand_names))
             if scenario.task is not None:
                 from harmony_cli.plots import plot_top_down
-                plot_top_down(out, steps, scenario, list(robot.hand_names), list(robot.joint_names))
+                plot_top_down(out, steps, scenario, list(robot.hand_names))
     return out
