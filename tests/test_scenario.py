@@ -52,6 +52,14 @@ BASE = "name: x\nrobot: {urdf: URDF}\nreference: {type: hold}\n"
      ["robot.base_joints", "'base_z'", "base_x"]),
     ("name: x\nrobot: {urdf: nowhere.urdf}\nreference: {type: hold}\n", ["robot.urdf", "nowhere.urdf"]),
     ("name: [unclosed\n", ["not valid YAML"]),
+    ("name: x\nrobot: {urdf: URDF}\ntask: {phases: [{name: a, duration: 1, hands: {left: {relative_to: shelf, "
+     "offset: [0, 0, 0]}, right: null}}]}\n", ["task.phases.0.hands.left.relative_to", "'shelf'", "(none)"]),
+    ("name: x\nrobot: {urdf: URDF}\ntask: {phases: [{name: a, duration: 1, hands: {left: [1, 2, 3]}}]}\n",
+     ["task.phases.0.hands", "left, right"]),
+    (BASE + "world: {obstacles: [{name: o, shape: cone, position: [0, 0, 0], size: [1, 1, 1]}]}\n",
+     ["world.obstacles.0.shape", "'cone'", "'cylinder'"]),
+    ("name: x\nrobot: {urdf: URDF}\nreference: {type: hold}\ntask: {phases: [{name: a, duration: 1, hands: "
+     "{left: null, right: null}}]}\n", ["reference / task", "both given"]),
 ])
 def test_bad_file_gets_one_line_naming_file_field_value_and_choices(tmp_path, text, expected):
     path = _write(tmp_path, text)
