@@ -29,10 +29,12 @@ def rotation_error_deg(r: np.ndarray, r_ref: np.ndarray) -> float:
 
 
 def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duration: float, control_dt: float,
-             substeps: int, record: Callable[[dict], None], on_step: Callable[[int, int], None] = lambda i, n: None):
+             substeps: int, record: Callable[[dict], None], on_step: Callable[[int, int], None] = lambda i, n: None,
+             watch: Callable[[float, object], dict] | None = None):
     """Run the whole scenario; every step's record goes to `record` as soon as it exists (nothing is lost).
 
-    `loop_ms` is the wall time from the observation to the command: references (planner) + whole-body MPC."""
+    `loop_ms` is the wall time from the observation to the command: references (planner) + whole-body MPC;
+    `watch(t, obs)` adds logged fields measured outside it."""
     robot = mpc.robot
     n_steps = int(round(duration / control_dt))
     for step in range(n_steps):
@@ -47,7 +49,7 @@ def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duratio
                "loop_ms": loop_ms, "status": result.status,
                "success": result.success, "held_last_plan": command.held, "iterations": result.iterations}
         reference_now = extra.pop("reference_now", positions[0])
-        row |= extra
+        row |= extra | (watch(t, obs) if watch else {})
         row |= {f"cost_{k}": v for k, v in mpc.problem.evaluate_terms(result.x, mpc.params).items()}
         for h, hand in enumerate(robot.hand_names):
             err = obs.hand_positions[h] - reference_now[h]

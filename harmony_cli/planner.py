@@ -25,16 +25,10 @@ import numpy as np
 from harmony_cli.bezier import bernstein_basis, difference_matrix, shift_matrix
 from harmony_cli.geometry import Shape
 from harmony_cli.knot_derivatives import Buffered
+from harmony_cli.reference import rot_z
 
 ROWS = 7  # hand 0 xyz, hand 1 xyz, heading
 STRETCHES = (1.0, 1.5, 2.25, 3.5, 5.0)  # horizon factors tried when the rate bounds cannot be met in time
-
-
-def rot_z(angle: np.ndarray) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    rot = np.zeros(np.shape(angle) + (3, 3))
-    rot[..., 0, 0], rot[..., 0, 1], rot[..., 1, 0], rot[..., 1, 1], rot[..., 2, 2] = c, -s, s, c, 1.0
-    return rot
 
 
 @dataclass(frozen=True)
@@ -49,7 +43,6 @@ class HandState:
 class Obstacle:
     shape: Shape
     clearance: float  # required signed distance of a hand centre [m] (margin + hand radius)
-    name: str = ""
 
 
 @dataclass(frozen=True)

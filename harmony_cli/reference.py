@@ -13,7 +13,8 @@ def _quintic(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return tau**3 * (10 - 15 * tau + 6 * tau**2), 30 * tau**2 * (1 - tau) ** 2
 
 
-def _rot_z(angle: np.ndarray) -> np.ndarray:
+def rot_z(angle: np.ndarray) -> np.ndarray:
+    """Rotations about z, shape angle.shape + (3, 3)."""
     c, s = np.cos(angle), np.sin(angle)
     rot = np.zeros(angle.shape + (3, 3))
     rot[..., 0, 0], rot[..., 0, 1], rot[..., 1, 0], rot[..., 1, 1], rot[..., 2, 2] = c, -s, s, c, 1.0
@@ -45,7 +46,7 @@ class HandReference:
     def poses(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Hand positions (n, hands, 3) and rotations (n, hands, 3, 3) at times t."""
         shift, heading = self.path(t)
-        rz = _rot_z(heading)  # (n, 3, 3)
+        rz = rot_z(heading)  # (n, 3, 3)
         arm = self.p0 - self.centre0  # (hands, 3)
         pos = self.centre0 + np.einsum("nij,hj->nhi", rz, arm)
         pos[..., :2] += shift[:, None, :]

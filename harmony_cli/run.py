@@ -95,14 +95,17 @@ def run_scenario(path: str | Path, overrides: list[str] = (), out: Path | None =
     rows: list[dict] = []
     summary: dict = {"name": scenario.name, "status": "running"}
     np.random.seed(scenario.seed)  # nothing in the loop is random today; the seed is recorded and fixed
+    recorder = None
     try:
         robot = load_robot(scenario.robot, path.parent)
         mpc = WholeBodyMPC(robot, scenario, scenario.sim.control_dt)
         sim = Simulation(robot, scenario.sim, scenario.world)
         if scenario.task is not None:
             references = TaskReferences(robot, scenario, sim)
+            watch = references.watch
         else:
             references = trajectory_references(HandReference(scenario.reference, robot.hand_poses_numeric(robot.home)))
+            watch = None
         summary |= {"transcription": scenario.mpc.transcription, "knots": scenario.mpc.knots,
                     "control_points": scenario.mpc.control_points if scenario.mpc.transcription == "bezier" else None,
                     "horizon_s": scenario.mpc.horizon, "solver": scenario.solver.name,
@@ -130,10 +133,8 @@ def run_scenario(path: str | Path, overrides: list[str] = (), out: Path | None =
             task = bar.add_task("run", total=int(round(scenario.sim.duration / scenario.sim.control_dt)))
             start = time.perf_counter()
             run_loop(mpc, sim, references, scenario.sim.duration, scenario.sim.control_dt, scenario.sim.substeps,
-                     record, lambda done, total: bar.update(task, completed=done))
+                     record, lambda done, total: bar.update(task, completed=done), watch)
         summary["wall_time_s"] = time.perf_counter() - start
-        if recorder:
-            summary["video"] = str(recorder.close())
         sim.close()
         summary["status"] = "completed"
     except BaseException as exc:  # noqa: BLE001 - record why (interrupts too), then report
@@ -144,6 +145,8 @@ def run_scenario(path: str | Path, overrides: list[str] = (), out: Path | None =
             raise
         raise RunFailed(out, reason) from exc
     finally:
+        if recorder:  # a run that fails part-way keeps its video up to there
+            summary["video"] = str(recorder.close())
         steps = pd.DataFrame(rows)
         steps.to_csv(out / "steps.csv", index=False)
         if len(steps):

@@ -1,5 +1,5 @@
 """The first of the two MPCs in series: phase schedule -> task-space planner -> hand references at the whole-body
-MPC's knots. Also watches the box (held, dropped) for the log."""
+MPC's knots; `watch` reports the box (held, dropped) for the log, outside the timed loop."""
 
 from __future__ import annotations
 
@@ -29,7 +29,7 @@ class TaskReferences:
         self.home_rotations = np.array([r for _, r in poses])
         p0, p1 = (p.ravel() for p, _ in poses)
         offset = -np.arctan2(p1[1] - p0[1], p1[0] - p0[0])  # home heading is 0 (base yaw 0 at home)
-        obstacles = [Obstacle(obstacle_shape(o), o.margin + scenario.planner.hand_radius, o.name)
+        obstacles = [Obstacle(obstacle_shape(o), o.margin + scenario.planner.hand_radius)
                      for o in scenario.world.obstacles]
         self.planner = TaskPlanner(scenario.planner, obstacles, self.home_rotations, offset)
         box = scenario.world.box
@@ -62,16 +62,19 @@ class TaskReferences:
             self.result = self.planner.step(t, state, self.goal, active.end, active.index,
                                             self.box_radius if holding else None, self.box_drop or 0.0)
             row |= {"planner_ms": 1e3 * self.result.solve_time, "planner_status": self.result.status,
-                    "planner_success": self.result.success, "planner_iterations": self.result.iterations}
+                    "planner_success": self.result.success, "planner_iterations": self.result.iterations,
+                    "planner_clearance_m": self.result.min_clearance}
         self.step_count += 1
         positions, rotations = self.result.plan.sample(t + knot_times)
-        for h, name in enumerate(self.schedule.hand_names):
-            row[f"{name}_goal_error_m"] = float(np.linalg.norm(obs.hand_positions[h] - self.goal[h]))
-        if self.world is not None and self.world.box is not None:
-            row |= self._watch_box(t, obs, holding)
         return positions, rotations, row
 
-    def _watch_box(self, t: float, obs, holding: bool) -> dict:
+    def watch(self, t: float, obs) -> dict:
+        """Goal errors and the box's state (drop: a held box touching no robot link for DROP_AFTER)."""
+        row = {f"{name}_goal_error_m": float(np.linalg.norm(obs.hand_positions[h] - self.goal[h]))
+               for h, name in enumerate(self.schedule.hand_names)}
+        if self.world is None or self.world.box is None:
+            return row
+        holding = self.schedule.holding(t)
         centre, z_axis = self.world.box_state()
         from_hands = float(np.linalg.norm(centre - obs.hand_positions.mean(axis=0)))
         touching = self.world.touching(self.world.box, self.sim.body)
@@ -79,6 +82,6 @@ class TaskReferences:
                                                                   else t)
         if self.loose_since is not None and t - self.loose_since >= DROP_AFTER and self.dropped_at is None:
             self.dropped_at = t
-        return {"box_x": centre[0], "box_y": centre[1], "box_z": centre[2], "box_tilt_deg":
+        return row | {"box_x": centre[0], "box_y": centre[1], "box_z": centre[2], "box_tilt_deg":
                 float(np.degrees(np.arccos(np.clip(z_axis[2], -1, 1)))), "box_from_hands_m": from_hands,
                 "box_touches_robot": touching, "dropped": self.dropped_at is not None}
