@@ -144,8 +144,12 @@ class KnotDerivatives:
         else:
             J = self._knots("gradient", x, p)["o1"].reshape(K, self.m, self.n_dof)
             H_k = 2 * np.matmul(J.transpose(0, 2, 1), J).reshape(K, -1)
+        return self.lin_vals + self.assemble(H_k)
+
+    def assemble(self, H_k: np.ndarray) -> np.ndarray:
+        """sum_k kron(b_k b_k^T, H_k) on the pattern (rows, cols), from per-knot blocks H_k (K x n_dof^2)."""
         np.matmul(self.W, H_k, out=self._blocks[:-1].reshape(self.W.shape[0], -1))
-        return self.lin_vals + self._blocks[self.nl_index]
+        return self._blocks[self.nl_index]
 
     def evaluate(self, x: np.ndarray, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         """(f, gradient, Hessian values)."""
@@ -157,3 +161,41 @@ class KnotDerivatives:
         H = np.zeros((x.size, x.size))
         H[self.rows, self.cols] = self.hessian(x, p)
         return H, g
+
+
+class KnotConstraints:
+    """Nonlinear rows h(q_k, ref_k) >= lower at the knots k >= 1 (knot 0 is the measured state) and their Jacobian
+    C = J_k (x) b_k over the position variables, from one compiled per-knot map. Rows are knot-major:
+    (k - 1) * m + j. lower = min(0, h(q_0)) per constraint: a state already inside a margin (a push, a moving
+    obstacle) may stay there but not go deeper, so the problem stays feasible."""
+
+    def __init__(self, problem: Problem):
+        self.B, n = problem.position_basis, problem.n_vars
+        (K, npos), nd = self.B.shape, problem.constraint.size1_in(0)
+        q, ref = (cs.SX.sym(name, problem.constraint.size1_in(i)) for i, name in enumerate(("q", "ref")))
+        h = problem.constraint(q, ref)
+        self.m, self.n_dof, self.n_rows = h.numel(), nd, (K - 1) * h.numel()
+        J = cs.jacobian(h, q)
+        self.map = Buffered(compiled(cs.Function("harmony_clearance", [q, ref], [h, cs.densify(J.T)]).map(K)))
+        lam = cs.SX.sym("lam", self.m)
+        self.curvature_map = Buffered(compiled(cs.Function(
+            "harmony_clearance_hessian", [q, ref, lam], [cs.densify(cs.hessian(cs.dot(lam, h), q)[0])]).map(K)))
+        structural = np.array(cs.DM(J.sparsity(), 1)) != 0  # m x nd: which joints each constraint depends on
+        self.pattern = np.zeros((self.n_rows, n), dtype=bool)  # x = [vec(positions) (nd * npos); anything else]
+        self.pattern[:, : nd * npos] = np.einsum("ka,ji->kjai", self.B[1:] != 0, structural).reshape(self.n_rows, -1)
+
+    def evaluate(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(h at knots >= 1, lower bounds, C: n_rows x n_vars dense)."""
+        (K, npos), nd = self.B.shape, self.n_dof
+        out = self.map(i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p)
+        h, J = out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, nd)
+        C = np.zeros(self.pattern.shape)
+        C[:, : nd * npos] = np.einsum("kji,ka->kjai", J[1:], self.B[1:]).reshape(self.n_rows, -1)
+        return h[1:].ravel(), np.tile(np.minimum(h[0], 0.0), K - 1), C
+
+    def curvature(self, x: np.ndarray, p: np.ndarray, lam: np.ndarray) -> np.ndarray:
+        """Per-knot Hessians of lam . h with respect to q_k (K x n_dof^2; knot 0 has no rows: zero)."""
+        (K, npos), nd = self.B.shape, self.n_dof
+        out = self.curvature_map(i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p,
+                                 i2=np.r_[np.zeros(self.m), lam])
+        return out["o0"].reshape(K, nd * nd)

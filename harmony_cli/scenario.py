@@ -71,7 +71,7 @@ class Weights(Strict):
     arm_symmetry: float = Field(0.1, ge=0, description="(LARM_JOINT0 + RARM_JOINT0)^2")
     posture: float = Field(0.001, ge=0, description="arm joints away from home")
     velocity: float = Field(0.01, ge=0, description="joint velocity at the knots")
-    clearance: float = Field(1.0e4, ge=0, description="squared clearance violation (base footprint and hands)")
+    clearance: float = Field(1.0e4, ge=0, description="squared clearance violation (mpc.clearance: soft only)")
     acceleration: float = Field(0.001, ge=0, description="joint acceleration at the knots")
 
 
@@ -81,6 +81,9 @@ class MpcSpec(Strict):
     horizon: PositiveFloat = Field(5.0, description="prediction horizon T [s]")
     knots: int = Field(26, ge=2, description="time knots K where the cost is evaluated (independent of N)")
     control_points: int = Field(6, ge=2, description="Bezier control points N (bezier only)")
+    clearance: Literal["hard", "soft"] = Field(
+        "hard", description="obstacle clearance of the base footprint and hands: constraint rows at knots k >= 1 "
+                            "(hard) or a squared-hinge cost weighted by weights.clearance (soft)")
     weights: Weights = Weights()
 
 

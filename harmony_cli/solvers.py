@@ -15,7 +15,7 @@ import casadi as cs
 import numpy as np
 import scipy.sparse as sp
 
-from harmony_cli.knot_derivatives import Buffered, KnotDerivatives
+from harmony_cli.knot_derivatives import Buffered, KnotConstraints, KnotDerivatives
 from harmony_cli.native_oracle import native_oracle
 
 NLP_CANDIDATES = ("ipopt", "sqpmethod", "feasiblesqpmethod", "blocksqp", "fatrop", "bonmin", "uno", "knitro",
@@ -43,7 +43,8 @@ class SolveResult:
 
 @dataclass
 class Problem:
-    """A built MPC problem: f = sum of named terms = ||r_task(q_k)||^2 summed over knots + ||L x + c||^2."""
+    """A built MPC problem: f = sum of named terms = ||r_task(q_k)||^2 summed over knots + ||L x + c||^2,
+    subject to lb <= A x <= ub and, if `constraint` is given, constraint(q_k, ref_k) >= 0 at knots k >= 1."""
 
     x: cs.SX
     p: cs.SX
@@ -57,6 +58,7 @@ class Problem:
     ref_shape: tuple[int, int]  # p = vec(ref) with ref m x K
     L: np.ndarray  # linear residual r_lin = L x + c
     c: np.ndarray
+    constraint: cs.Function | None = None  # (q[n_dof], ref[m]) -> h, e.g. obstacle clearance margins
     term_values: cs.Function = field(init=False)
 
     def __post_init__(self):
@@ -115,6 +117,49 @@ class _Oracle(cs.Callback):
         return 0
 
 
+class _ConstraintOracle(cs.Callback):
+    """(x, p) -> (h, dh/dx) ("jac"), or (x, p, lam) -> Hessian of lam . h on the cost Hessian's pattern ("hess"),
+    from KnotConstraints (Python: these rows exist only with obstacles; the cost keeps its native oracle)."""
+
+    def __init__(self, constraints: KnotConstraints, model: KnotDerivatives, kind: str, n_p: int):
+        cs.Callback.__init__(self)
+        self.constraints, self.model, self.kind, n = constraints, model, kind, model.n_vars
+        self.sizes = (n, n_p) if kind == "jac" else (n, n_p, constraints.n_rows)
+        rows, cols = np.nonzero(constraints.pattern)
+        self.jac_order = np.lexsort((rows, cols))  # CCS order of the Jacobian's nonzeros
+        self.jac_index = rows[self.jac_order], cols[self.jac_order]
+        self.out = {"jac": [cs.Sparsity.dense(constraints.n_rows),
+                            cs.Sparsity.triplet(constraints.n_rows, n, *(i.tolist() for i in self.jac_index))],
+                    "hess": [cs.Sparsity.triplet(n, n, model.rows.tolist(), model.cols.tolist())]}[kind]
+        self.construct(f"constraint_{kind}", {})
+
+    def get_n_in(self): return len(self.sizes)
+    def get_n_out(self): return len(self.out)
+    def get_sparsity_in(self, i): return cs.Sparsity.dense(self.sizes[i])
+    def get_sparsity_out(self, i): return self.out[i]
+    def has_eval_buffer(self): return True
+    def has_reverse(self, n_adj): return self.kind == "jac" and n_adj == 1
+
+    def get_reverse(self, n_adj, name, inames, onames, opts):  # dh^T adj (nlpsol's Lagrangian gradient)
+        x, p = cs.MX.sym("x", self.sizes[0]), cs.MX.sym("p", self.sizes[1])
+        h, jac = cs.MX.sym("h", self.out[0]), cs.MX.sym("jac", self.out[1])
+        adj_h, adj_jac = cs.MX.sym("adj_h", self.out[0]), cs.MX.sym("adj_jac", self.out[1])
+        return cs.Function(name, [x, p, h, jac, adj_h, adj_jac],
+                           [cs.densify(cs.mtimes(self(x, p)[1].T, adj_h)), cs.MX(self.sizes[1], 1)], inames, onames)
+
+    def eval_buffer(self, arg, res):
+        x, p, *lam = (np.zeros(n) if a is None else np.frombuffer(a, dtype=float) for n, a in zip(self.sizes, arg))
+        if self.kind == "jac":
+            h, _, C = self.constraints.evaluate(x, p)
+            values = [h, C[self.jac_index]]
+        else:
+            values = [self.model.assemble(self.constraints.curvature(x, p, lam[0]))]
+        for buffer, value in zip(res, values):
+            if buffer is not None:
+                np.frombuffer(buffer, dtype=float)[:] = value
+        return 0
+
+
 class Reduction:
     """The problem without the variables fixed by lbx == ubx (initial state, pinned joints) and without the rows
     that then have no free variable: smaller, and the equality rows left stay linearly independent."""
@@ -159,7 +204,12 @@ class NlpSolver:
         if self.native is None:  # no C compiler: the same derivatives through Python callbacks (~3 ms per solve)
             self.oracle = [_Oracle(model, kind, problem.p.numel()) for kind in ("f", "grad", "hess")]
             self.oracle[0].grad = self.oracle[1]
-        self.lam_x, self.lam_g = np.zeros(problem.n_vars), np.zeros(problem.A.shape[0])
+        self.constraints = KnotConstraints(problem) if problem.constraint is not None else None
+        self.n_rows = 0 if self.constraints is None else self.constraints.n_rows
+        if self.constraints is not None:
+            self.constraint_oracle = [_ConstraintOracle(self.constraints, model, kind, problem.p.numel())
+                                      for kind in ("jac", "hess")]
+        self.lam_x, self.lam_g = np.zeros(problem.n_vars), np.zeros(problem.A.shape[0] + self.n_rows)
         self._solvers = {}
         self._solver(np.ones(problem.n_vars, dtype=bool))  # checks the options now, not at the first solve
 
@@ -176,14 +226,18 @@ class NlpSolver:
                 f_grad = f
             else:  # f_grad: f from the same callback as the gradient (no second call for f)
                 f, (f_grad, grad), hess = self.oracle[0](x, p), self.oracle[1](x, p), self.oracle[2](x, p)
-            g, grad = cs.mtimes(A, z), grad[idx]
+            g, grad, jac, lam_g = cs.mtimes(A, z), grad[idx], A, cs.MX.sym("lam_g", r.a.size + self.n_rows)
+            hess_lag = lam_f * hess[idx, idx]
+            if self.constraints is not None:  # clearance rows
+                h, dh = self.constraint_oracle[0](x, p)
+                g, jac = cs.vertcat(g, h), cs.vertcat(jac, dh[:, idx])
+                hess_lag += self.constraint_oracle[1](x, p, lam_g[r.a.size:])[idx, idx]
             triu = cs.triu if self.plugin in ("ipopt", "bonmin", "knitro") else (lambda h: h)  # their convention
             derivatives = {  # whichever of these the plugin takes
                 "grad_f": cs.Function("grad_f", [z, pe], [f_grad, grad]),
-                "jac_g": cs.Function("jac_g", [z, pe], [g, A]),
-                "jac_fg": cs.Function("jac_fg", [z, pe], [f_grad, grad, g, A]),
-                "hess_lag": cs.Function("hess_lag", [z, pe, lam_f, cs.MX.sym("lam_g", r.a.size)],
-                                        [triu(lam_f * hess[idx, idx])])}
+                "jac_g": cs.Function("jac_g", [z, pe], [g, jac]),
+                "jac_fg": cs.Function("jac_fg", [z, pe], [f_grad, grad, g, jac]),
+                "hess_lag": cs.Function("hess_lag", [z, pe, lam_f, lam_g], [triu(hess_lag)])}
             options = self.options | {k: v for k, v in derivatives.items() if k in cs.nlpsol_options(self.plugin)}
             try:
                 solver = Buffered(cs.nlpsol("mpc", self.plugin, {"x": z, "p": pe, "f": f, "g": g}, options))
@@ -201,13 +255,17 @@ class NlpSolver:
         build_time = start - built  # microseconds unless this pattern is new
         x = np.where(free, 0.0, lbx)
         lbg, ubg = r.rows(self.problem.lb, self.problem.ub, x)
+        rows = np.r_[r.a, self.problem.A.shape[0] + np.arange(self.n_rows)]
+        if self.constraints is not None:
+            lower = self.constraints.evaluate(np.where(free, x0, lbx), p)[1]
+            lbg, ubg = np.r_[lbg, lower], np.r_[ubg, np.full(self.n_rows, np.inf)]
         out = solver(x0=x0[free], lbx=lbx[free], ubx=ubx[free], lbg=lbg, ubg=ubg, p=np.r_[p, lbx[~free]],
-                     lam_x0=self.lam_x[free], lam_g0=self.lam_g[r.a])
+                     lam_x0=self.lam_x[free], lam_g0=self.lam_g[rows])
         stats = solver.stats()
         x[free] = out["x"]
         if stats["success"]:
             self.lam_x[:], self.lam_g[:] = 0.0, 0.0
-            self.lam_x[free], self.lam_g[r.a] = out["lam_x"], out["lam_g"]
+            self.lam_x[free], self.lam_g[rows] = out["lam_x"], out["lam_g"]
         return SolveResult(x, bool(stats["success"]), str(stats["return_status"]), int(stats.get("iter_count", -1)),
                            time.perf_counter() - start, build_time)
 
@@ -217,20 +275,29 @@ class SymbolicNlpSolver:
     fixed variables as lbx == ubx. Slower than NlpSolver; used only when a plugin rejects its structured oracles."""
 
     def __init__(self, problem: Problem, plugin: str, options: dict):
-        nlp = {"x": problem.x, "p": problem.p, "f": sum(problem.terms.values()),
-               "g": cs.mtimes(cs.DM(problem.A), problem.x)}
+        self.constraints = KnotConstraints(problem) if problem.constraint is not None else None
+        g = cs.mtimes(cs.DM(problem.A), problem.x)
+        if self.constraints is not None:
+            (K, npos), nd = problem.position_basis.shape, self.constraints.n_dof
+            q = cs.mtimes(cs.reshape(problem.x[: nd * npos], nd, npos), cs.DM(problem.position_basis.T))
+            h = problem.constraint.map(K)(q, cs.reshape(problem.p, problem.ref_shape[0], K))
+            g = cs.vertcat(g, cs.vec(h[:, 1:]))
+        nlp = {"x": problem.x, "p": problem.p, "f": sum(problem.terms.values()), "g": g}
         try:
             self.solver = cs.nlpsol("mpc", plugin, nlp, {"print_time": False} | options)
         except RuntimeError as exc:
             raise SolverUnavailable(f"solver.name: {plugin!r} failed to initialise: "
                                     f"{str(exc).splitlines()[-1]}") from None
         self.problem = problem
-        self.lam_x, self.lam_g = np.zeros(problem.n_vars), np.zeros(problem.A.shape[0])
+        self.lam_x, self.lam_g = np.zeros(problem.n_vars), np.zeros(g.numel())
 
     def solve(self, x0, lbx, ubx, p) -> SolveResult:
         start = time.perf_counter()
-        out = self.solver(x0=x0, lbx=lbx, ubx=ubx, lbg=self.problem.lb, ubg=self.problem.ub, p=p,
-                          lam_x0=self.lam_x, lam_g0=self.lam_g)
+        lbg, ubg = self.problem.lb, self.problem.ub
+        if self.constraints is not None:
+            lower = self.constraints.evaluate(np.where(lbx < ubx, x0, lbx), p)[1]
+            lbg, ubg = np.r_[lbg, lower], np.r_[ubg, np.full(lower.size, np.inf)]
+        out = self.solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, p=p, lam_x0=self.lam_x, lam_g0=self.lam_g)
         elapsed = time.perf_counter() - start
         stats = self.solver.stats()
         if stats["success"]:
@@ -241,11 +308,12 @@ class SymbolicNlpSolver:
 
 class GaussNewtonSolver:
     """Gauss-Newton SQP with structured Hessians and a QP per iteration over the free variables (see Reduction);
-    `max_iter=1` is real-time iteration."""
+    nonlinear constraint rows are linearised at each iterate. `max_iter=1` is real-time iteration."""
 
     def __init__(self, problem: Problem, qp: str, max_iter: int, tol: float):
         self.problem, self.max_iter, self.tol = problem, max_iter, tol
         self.model = KnotDerivatives(problem)
+        self.constraints = KnotConstraints(problem) if problem.constraint is not None else None
         self.qp_name, self.options = qp, {"error_on_fail": False}
         if qp == "qpoases":
             self.options |= {"printLevel": "none"}
@@ -255,21 +323,32 @@ class GaussNewtonSolver:
         self.regularisation = 1e-6
 
     def _qp(self, free: np.ndarray):
-        """(QP solver, Reduction, kept Hessian nonzeros, their diagonal), built once per pattern."""
+        """(QP solver, Reduction, kept Hessian nonzeros, their diagonal, constraint Jacobian nonzeros), built once
+        per pattern. The QP's rows are the reduced linear rows, then the linearised constraints (values each
+        iteration): the matrix's nonzeros in CCS order come from A (code < 0) or from C[:, free] (code > 0)."""
         if free.tobytes() not in self._qps:
             r, rows, cols, index = Reduction(self.problem.A, free), self.model.rows, self.model.cols, np.cumsum(free)
             kept = np.flatnonzero(free[rows] & free[cols])  # still in CCS order
             h = cs.Sparsity.triplet(r.n, r.n, (index[rows[kept]] - 1).tolist(), (index[cols[kept]] - 1).tolist())
-            a = cs.Sparsity(*r.A_free.shape, r.A_free.indptr.tolist(), r.A_free.indices.tolist())
+            codes = r.A_free.copy()
+            codes.data = -1.0 - np.arange(codes.nnz)
+            if self.constraints is not None:
+                pattern = self.constraints.pattern[:, free]
+                dense = np.where(pattern, 1.0 + np.arange(pattern.size).reshape(pattern.shape), 0.0)
+                codes = sp.vstack([codes, sp.csc_matrix(dense)]).tocsc()
+            codes.sort_indices()
+            a = cs.Sparsity(*codes.shape, codes.indptr.tolist(), codes.indices.tolist())
             solver = Buffered(cs.conic("gn_qp", self.qp_name, {"h": h, "a": a}, self.options))
-            solver.args["a"][:] = r.A_free.data
-            self._qps[free.tobytes()] = solver, r, kept, np.flatnonzero(rows[kept] == cols[kept])
+            from_a = codes.data < 0
+            solver.args["a"][from_a] = r.A_free.data[(-codes.data[from_a] - 1).astype(int)]
+            from_c = np.flatnonzero(~from_a), (codes.data[~from_a] - 1).astype(int)
+            self._qps[free.tobytes()] = solver, r, kept, np.flatnonzero(rows[kept] == cols[kept]), from_c
         return self._qps[free.tobytes()]
 
     def solve(self, x0, lbx, ubx, p) -> SolveResult:
         built = time.perf_counter()
         free = lbx < ubx
-        qp, r, kept, diagonal = self._qp(free)
+        qp, r, kept, diagonal, (c_slots, c_entries) = self._qp(free)
         start = time.perf_counter()
         build_time = start - built  # microseconds unless this pattern is new
         x = np.clip(x0, lbx, ubx)  # the fixed variables are exact from here on
@@ -279,6 +358,10 @@ class GaussNewtonSolver:
             h = vals[kept]
             h[diagonal] += self.regularisation
             lba, uba = r.rows(self.problem.lb, self.problem.ub, x)
+            if self.constraints is not None:  # h + C dz >= lower
+                value, lower, C = self.constraints.evaluate(x, p)
+                qp.args["a"][c_slots] = C[:, free].ravel()[c_entries]
+                lba, uba = np.r_[lba, lower - value], np.r_[uba, np.full(value.size, np.inf)]
             out = qp(h=h, g=g[free], lba=lba, uba=uba, lbx=lbx[free] - x[free], ubx=ubx[free] - x[free])
             stats = qp.stats()
             if not stats["success"]:

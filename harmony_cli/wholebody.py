@@ -35,42 +35,65 @@ class Clearance:
     hand: float | None
 
 
+SOFTMIN = 0.01  # [m] smoothing of the footprint's min over circles; the soft-min is below the min by <= this * ln n
+
+
+def clearance_margins(robot: Robot, q, obstacle_poses, clearances: tuple[Clearance, ...],
+                      footprint: tuple[tuple[float, float, float], ...]) -> list:
+    """Clearance margins (>= 0: clear) of a configuration q: per obstacle, the base footprint (a smooth soft-min
+    over its circles, a lower bound of their minimum; planar) if there is a footprint, then each hand (3-D) if
+    the obstacle keeps hands away. obstacle_poses stacks [centre (3); yaw] per obstacle."""
+    hands = [robot.hand_pose(h, q)[0] for h in range(len(robot.end_effectors))]
+    bx, by, byaw = (q[i] for i in robot.base_joints)
+    circles = [(cs.vertcat(bx + cs.cos(byaw) * x - cs.sin(byaw) * y, by + cs.sin(byaw) * x + cs.cos(byaw) * y, 0),
+                r) for x, y, r in footprint]
+    margins = []
+    for o, obstacle in enumerate(clearances):
+        centre, yaw = obstacle_poses[4 * o: 4 * o + 3], obstacle_poses[4 * o + 3]
+        if circles:
+            m = cs.vertcat(*[symbolic_distance(obstacle.kind, obstacle.half, centre, yaw, point, planar=True)
+                             - obstacle.base - radius for point, radius in circles])
+            low = cs.mmin(m)  # shifted log-sum-exp: exact, smooth, no overflow
+            margins.append(low - SOFTMIN * cs.log(cs.sum1(cs.exp(-(m - low) / SOFTMIN))))
+        if obstacle.hand is not None:
+            margins += [symbolic_distance(obstacle.kind, obstacle.half, centre, yaw, p) - obstacle.hand for p in hands]
+    return margins
+
+
+def clearance_function(robot: Robot, clearances: tuple[Clearance, ...], footprint: tuple) -> cs.Function:
+    """h(q, ref) >= 0 per knot (ref as in task_residual_function): the hard clearance constraints."""
+    H = len(robot.end_effectors)
+    q, ref = cs.SX.sym("q", robot.n_dof), cs.SX.sym("ref", 12 * H + 4 * len(clearances))
+    return cs.Function("clearance", [q, ref], [cs.vertcat(*clearance_margins(robot, q, ref[12 * H:], clearances,
+                                                                              footprint))])
+
+
 def task_residual_function(robot: Robot, weights, n_knots: int, clearances: tuple[Clearance, ...] = (),
-                           footprint: tuple[tuple[float, float, float], ...] = ()) -> cs.Function:
+                           footprint: tuple[tuple[float, float, float], ...] = (), soft: bool = False) -> cs.Function:
     """Weighted per-knot residual r(q, ref) = [sqrt(w_p/K)(p - p_ref); sqrt(w_o/K) vec(R - R_ref)] per hand, then
-    sqrt(w_c/K) max(0, needed - distance) for every (footprint circle | hand, obstacle) pair.
+    if `soft`, sqrt(w_c/K) max(0, -margin) for every clearance margin (squared in the cost: C1).
 
     ref stacks per hand [p_ref (3); vec(R_ref) (9)], then per obstacle [centre (3); yaw];
-    ||R - R_ref||_F^2 = 2(3 - tr(R_ref^T R)) is sign-safe. The hinge is squared in the cost: C1.
+    ||R - R_ref||_F^2 = 2(3 - tr(R_ref^T R)) is sign-safe.
     """
     H = len(robot.end_effectors)
     q = cs.SX.sym("q", robot.n_dof)
     ref = cs.SX.sym("ref", 12 * H + 4 * len(clearances))
     wp, wo = np.sqrt(weights.position / n_knots), np.sqrt(weights.orientation / n_knots)
-    wc = np.sqrt(weights.clearance / n_knots)
-    parts, hands = [], []
+    parts = []
     for h in range(H):
         p, R = robot.hand_pose(h, q)
-        hands.append(p)
         parts += [wp * (p - ref[12 * h: 12 * h + 3]), wo * (cs.vec(R) - ref[12 * h + 3: 12 * h + 12])]
-    bx, by, byaw = (q[i] for i in robot.base_joints)
-    circles = [(cs.vertcat(bx + cs.cos(byaw) * x - cs.sin(byaw) * y, by + cs.sin(byaw) * x + cs.cos(byaw) * y, 0),
-                r) for x, y, r in footprint]
-    for o, obstacle in enumerate(clearances):
-        centre, yaw = ref[12 * H + 4 * o: 12 * H + 4 * o + 3], ref[12 * H + 4 * o + 3]
-        for point, radius in circles:
-            d = symbolic_distance(obstacle.kind, obstacle.half, centre, yaw, point, planar=True)
-            parts.append(wc * cs.fmax(0, obstacle.base + radius - d))
-        if obstacle.hand is not None:
-            for p in hands:
-                parts.append(wc * cs.fmax(0, obstacle.hand - symbolic_distance(obstacle.kind, obstacle.half,
-                                                                                 centre, yaw, p)))
+    if soft:
+        wc = np.sqrt(weights.clearance / n_knots)
+        parts += [wc * cs.fmax(0, -m) for m in clearance_margins(robot, q, ref[12 * H:], clearances, footprint)]
     return cs.Function("task_residual", [q, ref], [cs.vertcat(*parts)])
 
 
 def build_problem(robot: Robot, transcription, weights, chest_joints, mirrored_joints,
-                  clearances: tuple[Clearance, ...] = (), footprint: tuple = ()) -> Problem:
-    """The MPC-W problem from one spec for either transcription, modelled with OpTaS's builder."""
+                  clearances: tuple[Clearance, ...] = (), footprint: tuple = (), clearance: str = "hard") -> Problem:
+    """The MPC-W problem from one spec for either transcription, modelled with OpTaS's builder. Clearance is
+    `hard` (rows h(q_k) >= 0 at knots k >= 1) or `soft` (a squared-hinge cost term)."""
     K, H = transcription.n_knots, len(robot.end_effectors)
     builder = optas.OptimizationBuilder(T=1)
     parts = [builder.add_decision_variables(name, *shape) for name, shape in transcription.variable_shapes.items()]
@@ -78,12 +101,13 @@ def build_problem(robot: Robot, transcription, weights, chest_joints, mirrored_j
     ref = builder.add_parameter("knot_params", 12 * H + 4 * len(clearances), K)  # hand refs, obstacle poses
     q, dq, ddq = transcription.knots(x)
 
-    task_residual = task_residual_function(robot, weights, K, clearances, footprint)
+    soft = clearance == "soft" and bool(clearances)
+    task_residual = task_residual_function(robot, weights, K, clearances, footprint, soft)
     residual = task_residual.map(K)(q, ref)
     for h, hand in enumerate(robot.hand_names):
         builder.add_cost_term(f"position_{hand}", cs.sumsqr(residual[12 * h: 12 * h + 3, :]))
         builder.add_cost_term(f"orientation_{hand}", cs.sumsqr(residual[12 * h + 3: 12 * h + 12, :]))
-    if clearances:
+    if soft:
         builder.add_cost_term("clearance", cs.sumsqr(residual[12 * H:, :]))
 
     moving = [i for i in range(robot.n_dof) if i not in robot.pinned_joints]
@@ -103,13 +127,15 @@ def build_problem(robot: Robot, transcription, weights, chest_joints, mirrored_j
         builder.add_cost_term(name, cs.sumsqr(r))
     optimization = builder.build()
 
+    constraint = clearance_function(robot, clearances, footprint) if clearances and not soft else None
     r_lin = cs.vertcat(*[cs.vec(r) for r in linear.values()])
     L, c = (np.array(v) for v in cs.Function("lin", [x], [cs.jacobian(r_lin, x), r_lin])(np.zeros(x.numel())))
     A, lb, ub = linear_rows(x, transcription.linear_constraints(x, robot.velocity_limit))
     return Problem(
         x=x, p=optimization.parameters.vec(), terms={k: optimization.cost_terms[k] for k in optimization.cost_terms},
         A=A, lb=lb, ub=ub, task_residual=task_residual,
-        position_basis=transcription.position_basis, ref_shape=(ref.shape[0], K), L=L, c=c.ravel())
+        position_basis=transcription.position_basis, ref_shape=(ref.shape[0], K), L=L, c=c.ravel(),
+        constraint=constraint if constraint is not None and constraint.numel_out(0) else None)
 
 
 class WholeBodyMPC:
@@ -130,7 +156,8 @@ class WholeBodyMPC:
         self.obstacle_poses = np.tile(np.concatenate(poses or [np.zeros(0)])[:, None], self.transcription.n_knots)
         self.problem = build_problem(robot, self.transcription, scenario.mpc.weights, scenario.robot.chest_joints,
                                      scenario.robot.mirrored_joints, self.clearances,
-                                     tuple(map(tuple, scenario.robot.footprint)) if self.clearances else ())
+                                     tuple(map(tuple, scenario.robot.footprint)) if self.clearances else (),
+                                     scenario.mpc.clearance)
         self.solver = make_solver(self.problem, scenario.solver)
         self.build_time = time.perf_counter() - start
         self.x = None  # last good solution

@@ -8,11 +8,12 @@ from harmony_cli.loop import hand_reference_matrix
 from harmony_cli.reference import HandReference
 from harmony_cli.scenario import load_scenario
 from harmony_cli import solvers
-from harmony_cli.knot_derivatives import KnotDerivatives
+from harmony_cli.knot_derivatives import KnotConstraints, KnotDerivatives
 from harmony_cli.native_oracle import native_oracle
-from harmony_cli.solvers import SymbolicNlpSolver, make_solver
+from harmony_cli.solvers import NlpSolver, SymbolicNlpSolver, make_solver
 from harmony_cli.transcription import TraditionalTranscription, make_transcription
 from harmony_cli.wholebody import WholeBodyMPC, build_problem
+from harmony_cli.world import obstacle_shape
 
 from conftest import TABLE1
 
@@ -171,3 +172,82 @@ def test_failed_solve_is_reported_and_the_last_good_plan_is_held(eva):
     assert not failed.success and second.held
     expected_q, _ = mpc.transcription.readout(mpc.transcription.shift(plan, 0.02), 0.02)
     np.testing.assert_allclose(second.q, expected_q)
+
+
+NARROW = TABLE1.parent / "narrow_passage.yaml"
+
+
+def _walled(eva, *overrides):
+    """The narrow passage's walls (y = 1.9..2.1) with both hands' references 2.5 m beyond them: the base and the
+    hands run into a wall unless the clearance holds."""
+    scenario = load_scenario(NARROW, ["mpc.knots=11", *overrides])
+    mpc = WholeBodyMPC(eva, scenario, scenario.sim.control_dt)
+    K = mpc.transcription.n_knots
+    poses = eva.hand_poses_numeric(eva.home)
+    positions = np.array([[p.ravel() + [0.3, 2.5, 0.0] for p, _ in poses]] * K)
+    rotations = np.array([[r for _, r in poses]] * K)
+    return scenario, mpc, hand_reference_matrix(positions, rotations)
+
+
+def _footprint_margins(mpc, scenario, x) -> np.ndarray:
+    """Numpy geometry (independent of the CasADi model): per knot >= 1, every footprint circle's distance to
+    every wall minus its radius and margin."""
+    q = mpc.transcription.knots(x)[0][:, 1:]
+    out = []
+    for wall in scenario.world.obstacles:
+        shape = obstacle_shape(wall)
+        for cx, cy, r in scenario.robot.footprint:
+            c, s = np.cos(q[2]), np.sin(q[2])
+            points = np.stack([q[0] + c * cx - s * cy, q[1] + s * cx + c * cy, np.full(q.shape[1], shape.centre[2])], 1)
+            out.append(shape.distance(points)[0] - r - wall.margin)
+    return np.concatenate(out)
+
+
+def test_hard_clearance_holds_binds_and_every_solver_reaches_the_same_optimum(eva):
+    scenario, mpc, ref = _walled(eva, "solver.name=gauss_newton", "solver.tol=1.0e-10", "solver.max_iter=300")
+    _, gn = mpc.step(eva.home.copy(), ref)
+    constraints = KnotConstraints(mpc.problem)
+    h, lower, _ = constraints.evaluate(gn.x, mpc.params)
+    assert gn.success and (lower == 0).all()
+    assert h.min() > -1e-8 and h.min() < 1e-6  # feasible and binding: the references pull through the wall
+    assert _footprint_margins(mpc, scenario, gn.x).min() >= h.min() - 1e-9  # the soft-min is a lower bound
+    lbx, ubx = mpc.transcription.bounds(eva.lower, eva.upper, eva.velocity_limit, eva.home,
+                                        list(eva.pinned_joints), eva.home[list(eva.pinned_joints)])
+    x0 = np.clip(mpc._constant(eva.home), lbx, ubx)
+    ipopt = make_solver(mpc.problem, load_scenario(NARROW, ["solver.name=ipopt"]).solver)
+    assert isinstance(ipopt, NlpSolver)  # the structured path, not the symbolic fallback
+    symbolic = SymbolicNlpSolver(mpc.problem, "ipopt", {"ipopt.print_level": 0, "ipopt.sb": "yes"})
+    for solver in (ipopt, symbolic):
+        result = solver.solve(x0, lbx, ubx, mpc.params)
+        assert result.success  # interior point: weakly active joint bounds are approached to ~1e-4
+        np.testing.assert_allclose(result.x, gn.x, atol=5e-4)
+        cost = lambda x: sum(mpc.problem.evaluate_terms(x, mpc.params).values())
+        np.testing.assert_allclose(cost(result.x), cost(gn.x), rtol=1e-6)
+
+
+def test_clearance_jacobian_and_curvature_match_finite_differences(eva, rng):
+    _, mpc, ref = _walled(eva, "solver.name=rti")
+    constraints, model = KnotConstraints(mpc.problem), KnotDerivatives(mpc.problem)
+    p = np.vstack([ref, mpc.obstacle_poses]).ravel(order="F")
+    x = mpc._constant(eva.home) + 0.05 * rng.standard_normal(mpc.problem.n_vars)
+    x[1::eva.n_dof] += 1.2  # base y: the footprint near the wall, both sides of the margin
+    h, _, C = constraints.evaluate(x, p)
+    eps, lam = 1e-6, rng.standard_normal(h.size)
+    fd = np.array([(constraints.evaluate(x + eps * e, p)[0] - constraints.evaluate(x - eps * e, p)[0]) / (2 * eps)
+                   for e in np.eye(x.size)]).T
+    np.testing.assert_allclose(C, fd, atol=1e-6)
+    H = np.zeros((x.size, x.size))
+    H[model.rows, model.cols] = model.assemble(constraints.curvature(x, p, lam))
+    fd = np.array([(constraints.evaluate(x + eps * e, p)[2] - constraints.evaluate(x - eps * e, p)[2]).T @ lam
+                   / (2 * eps) for e in np.eye(x.size)])
+    np.testing.assert_allclose(H, fd, atol=1e-4)
+
+
+def test_a_state_inside_a_margin_may_stay_but_not_go_deeper(eva):
+    _, mpc, ref = _walled(eva, "solver.name=gauss_newton", "solver.tol=1.0e-10", "solver.max_iter=300")
+    q_now = eva.home.copy()
+    q_now[1] = 1.9 - (0.707 / 2) - 0.01  # long side 1 cm from the wall, inside its 3 cm margin
+    command, result = mpc.step(q_now, ref)
+    h, lower, _ = KnotConstraints(mpc.problem).evaluate(result.x, mpc.params)
+    assert result.success and not command.held and lower.min() < -0.02
+    assert (h >= lower - 1e-8).all()
