@@ -10,6 +10,7 @@ import numpy as np
 from harmony_cli.reference import HandReference
 from harmony_cli.sim import Simulation
 from harmony_cli.wholebody import WholeBodyMPC
+from harmony_cli.wrench import normal_forces
 
 
 # (t, observation, knot times) -> positions (K, hands, 3), rotations (K, hands, 3, 3), extra log fields
@@ -57,6 +58,8 @@ def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duratio
             row |= {f"{hand}_meas_{a}": v for a, v in zip("xyz", obs.hand_positions[h])}
             row[f"{hand}_error_m"] = float(np.linalg.norm(err))
             row[f"{hand}_rot_error_deg"] = rotation_error_deg(obs.hand_rotations[h], rotations[0, h])
+            row[f"{hand}_force_normal_N"] = float(normal_forces(obs.wrenches)[h])  # wrist sensor, pad pressed > 0
+            row |= {f"{hand}_force_{a}_N": v for a, v in zip("xyz", obs.wrenches[h, :3])}  # grasp frame
         row |= {f"q_{j}": v for j, v in zip(robot.joint_names, obs.q)}
         row |= {f"cmd_q_{j}": v for j, v in zip(robot.joint_names, command.q)}
         row |= {f"cmd_qd_{j}": v for j, v in zip(robot.joint_names, command.qd)}

@@ -10,6 +10,7 @@ import numpy as np
 import optas
 
 from harmony_cli.knot_derivatives import CACHE_DIR
+from harmony_cli.scenario import wrist_sensor_joints
 from harmony_cli.urdf_prep import prepare_urdf
 
 
@@ -25,6 +26,7 @@ class Robot:
     velocity_limit: np.ndarray  # [rad/s | m/s]
     end_effectors: tuple[str, ...]  # link names, e.g. ("LARM_grasp", "RARM_grasp")
     hand_names: tuple[str, ...]  # labels in logs, e.g. ("left", "right")
+    wrist_sensors: tuple[str, ...]  # per hand, the fixed joint whose child carries the tool (force/torque sensor)
     home: np.ndarray
     base_joints: tuple[int, ...]  # indices of the velocity-commanded virtual planar joints
     pinned_joints: tuple[int, ...]  # indices held at home in every MPC (the head)
@@ -67,6 +69,7 @@ def load_robot(spec, scenario_dir: Path) -> Robot:
         velocity_limit=np.array(model.velocity_actuated_joint_limits).ravel(),
         end_effectors=tuple(spec.end_effectors.values()),
         hand_names=tuple(spec.end_effectors.keys()),
+        wrist_sensors=tuple(wrist_sensor_joints(spec, urdf).values()),
         home=home,
         base_joints=tuple(names.index(j) for j in spec.base_joints),
         pinned_joints=tuple(names.index(j) for j in spec.pinned_joints),

@@ -10,6 +10,8 @@ from typing import Annotated, Any, Literal, Union
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, ValidationError, ValidationInfo, field_validator
 
+from harmony_cli.urdf_prep import fixed_joints_above
+
 EVA_HOME_DEG = {"LARM_JOINT2": -30.0, "LARM_JOINT4": 30.0, "LARM_JOINT5": 90.0,
                 "RARM_JOINT2": -30.0, "RARM_JOINT4": 30.0, "RARM_JOINT5": -90.0}
 
@@ -31,6 +33,10 @@ class RobotSpec(Strict):
                                    description="virtual planar base joints x, y, yaw, commanded by velocity; added "
                                                "(prismatic, prismatic, revolute) when the URDF has none of them")
     package_paths: list[str] = Field([], description="where package:// mesh URIs resolve (relative to the file)")
+    wrist_sensors: dict[str, str] | None = Field(
+        None, description="hand -> fixed joint carrying the tool, where PyBullet measures the wrist force/torque; "
+                          "one of the fixed joints between the end effector and the last movable joint above it; "
+                          "default: the joint whose child holds the end-effector frame (EVA: *ARM_TOOL_JOINT)")
     pinned_joints: list[str] = Field(["HEAD_JOINT0", "HEAD_JOINT1"], description="held at home in every MPC")
     chest_joints: list[str] = Field(["CHEST_JOINT0"], description="torso joints (regularised towards 0)")
     mirrored_joints: list[tuple[str, str]] = Field([("LARM_JOINT0", "RARM_JOINT0")],
@@ -291,6 +297,29 @@ def _urdf_joints_and_links(urdf: Path) -> tuple[set[str], set[str]]:
     return {j.get("name") for j in root.iter("joint")}, {l.get("name") for l in root.iter("link")}
 
 
+def wrist_sensor_joints(spec: RobotSpec, urdf: Path) -> dict[str, str]:
+    """Hand -> force/torque sensor joint, given or derived; ValueError (`field: value: reason; choices`) if unusable."""
+    given = spec.wrist_sensors
+    if given is not None and set(given) != set(spec.end_effectors):
+        raise ValueError(f"robot.wrist_sensors: {sorted(given)} must name every hand exactly once; "
+                         f"hands: {', '.join(spec.end_effectors)}")
+    sensors = {}
+    for hand, link in spec.end_effectors.items():
+        choices = fixed_joints_above(urdf, link)
+        if given is None:
+            if not choices:
+                raise ValueError(f"robot.wrist_sensors: cannot derive hand {hand}'s sensor joint: {link!r} hangs "
+                                 f"from no fixed joint in {urdf.name}; add a fixed wrist joint to the URDF")
+            sensors[hand] = choices[-2] if len(choices) > 1 else choices[0]  # the joint above the frame's link
+        elif given[hand] in choices:
+            sensors[hand] = given[hand]
+        else:
+            raise ValueError(f"robot.wrist_sensors.{hand}: {given[hand]!r} is not a fixed joint between {link} and "
+                             f"the movable joint above it in {urdf.name}; choose one of: "
+                             f"{', '.join(choices) or '(none)'}")
+    return sensors
+
+
 def _check_robot(path: Path, scenario: Scenario) -> None:
     urdf = (path.parent / scenario.robot.urdf).resolve()
     if not urdf.is_file():
@@ -312,6 +341,10 @@ def _check_robot(path: Path, scenario: Scenario) -> None:
             if joint not in joints:
                 raise ScenarioError(f"{path}: robot.{field}: {joint!r} is not a joint of {urdf.name}; "
                                     f"joints: {', '.join(sorted(joints))}")
+    try:
+        wrist_sensor_joints(scenario.robot, urdf)
+    except ValueError as err:
+        raise ScenarioError(f"{path}: {err}") from None
 
 
 def _check_task(path: Path, scenario: Scenario) -> None:

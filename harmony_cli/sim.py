@@ -13,6 +13,7 @@ from pybullet_utils.bullet_client import BulletClient
 
 from harmony_cli.robot import Robot
 from harmony_cli.world import World
+from harmony_cli.wrench import WristSensors
 
 
 @dataclass(frozen=True)
@@ -23,6 +24,7 @@ class Observation:
     hand_rotations: np.ndarray  # (hands, 3, 3)
     hand_velocities: np.ndarray  # (hands, 3) world linear velocities
     heading_rate: float  # mean yaw rate of the hands [rad/s]
+    wrenches: np.ndarray  # (hands, 6) external force and torque on each tool, grasp frame (see wrench.py)
 
 
 @contextlib.contextmanager
@@ -67,6 +69,7 @@ class Simulation:
             self.client.resetJointState(self.body, j, robot.home[i], 0.0)
         for link in range(-1, self.client.getNumJoints(self.body)):  # Bullet multiplies the two bodies' values
             self.client.changeDynamics(self.body, link, lateralFriction=1.0, spinningFriction=1.0)
+        self.wrists = WristSensors(self.client, self.body, [by_name[j] for j in robot.wrist_sensors], self.hand_links)
         self.world = World(self.client, world) if world is not None else None
         self.time = 0.0
 
@@ -79,7 +82,8 @@ class Simulation:
             hand_positions=np.array([l[4] for l in links]),
             hand_rotations=np.array([np.reshape(self.client.getMatrixFromQuaternion(l[5]), (3, 3)) for l in links]),
             hand_velocities=np.array([l[6] for l in links]),
-            heading_rate=float(np.mean([l[7][2] for l in links])))
+            heading_rate=float(np.mean([l[7][2] for l in links])),
+            wrenches=self.wrists.read())
 
     def apply(self, q_target: np.ndarray, qd_target: np.ndarray) -> None:
         base = [self.joints[i] for i in self.base]
@@ -94,6 +98,7 @@ class Simulation:
 
     def step(self, substeps: int) -> None:
         for _ in range(substeps):
+            self.wrists.before_physics_step()
             self.client.stepSimulation()
         self.time += substeps * self.spec.physics_dt
 

@@ -28,6 +28,16 @@ def actuated_joint_names(urdf: Path) -> list[str]:
     return [joint.get("name") for joint in robot.findall("joint") if joint.get("type") != "fixed"]
 
 
+def fixed_joints_above(urdf: Path, link: str) -> list[str]:
+    """The fixed joints between `link` and the nearest movable joint above it, top first (the rigid wrist chain)."""
+    parent_joint = {joint.find("child").get("link"): joint for joint in ET.parse(urdf).getroot().findall("joint")}
+    chain = []
+    while link in parent_joint and parent_joint[link].get("type") == "fixed":
+        chain.insert(0, parent_joint[link].get("name"))
+        link = parent_joint[link].find("parent").get("link")
+    return chain
+
+
 def prepare_urdf(urdf: Path, base_joints: tuple[str, str, str], package_paths: list[Path],
                  cache_dir: Path) -> Path:
     """Return a URDF with the virtual base `base_joints` and absolute mesh paths.

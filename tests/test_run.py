@@ -27,7 +27,8 @@ def test_run_writes_a_self_describing_run_directory(tmp_path):
     assert {"packages", "git_sha", "cpu", "seed", "concurrency"} <= set(meta)
     steps = pd.read_csv(out / "steps.csv")
     assert len(steps) == 50 and {"solve_ms", "status", "iterations", "cost_position_left", "left_ref_x",
-                                 "left_meas_x", "cmd_qd_base_x"} <= set(steps.columns)
+                                 "left_meas_x", "cmd_qd_base_x", "left_force_normal_N",
+                                 "right_force_z_N"} <= set(steps.columns)
     assert "mpc.knots=8" in (out / "overrides.yaml").read_text()
     # the resolved scenario re-runs from the run directory alone
     again = runner.invoke(app, ["validate", str(out / "scenario.resolved.yaml")])
