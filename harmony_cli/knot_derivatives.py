@@ -91,6 +91,7 @@ class KnotDerivatives:
         self.knots = {kind: Buffered(compiled(f)) for kind, f in self.knot_functions.items()}
         self._cache = {}
         self.L, self.Lt, self.c = sp.csr_matrix(problem.L), sp.csr_matrix(problem.L.T), problem.c
+        self.S = sp.csr_matrix(problem.S if problem.S is not None else (problem.c.size, problem.p.numel()))
         # block (a, b) of the position Hessian is sum_k B[k, a] B[k, b] H_k; (b, a) is the same matrix (H_k
         # symmetric), so one block per unordered nonzero pair
         outer = np.einsum("ka,kb->kab", self.B, self.B)
@@ -123,15 +124,18 @@ class KnotDerivatives:
             hit = self._cache[kind] = x.copy(), p.copy(), {k: v.copy() for k, v in out.items()}
         return hit[2]
 
+    def linear_residual(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        return self.L @ x + self.c + self.S @ p
+
     def value(self, x: np.ndarray, p: np.ndarray) -> float:
-        r, r_lin = self._knots("value", x, p)["o0"], self.L @ x + self.c
+        r, r_lin = self._knots("value", x, p)["o0"], self.linear_residual(x, p)
         return float(r @ r + r_lin @ r_lin)
 
     def gradient(self, x: np.ndarray, p: np.ndarray) -> tuple[float, np.ndarray]:
         nd, (K, npos) = self.n_dof, self.B.shape
         out = self._knots("gradient", x, p)
         r, J = out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, nd)  # J_k = d r_k / d q_k
-        r_lin = self.L @ x + self.c
+        r_lin = self.linear_residual(x, p)
         g = 2 * (self.Lt @ r_lin)
         g[: nd * npos] += 2 * (self.B.T @ np.einsum("kmi,km->ki", J, r)).ravel()
         return float(r.ravel() @ r.ravel() + r_lin @ r_lin), g
@@ -191,11 +195,11 @@ class KnotConstraints:
         h, J = out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, nd)
         C = np.zeros(self.pattern.shape)
         C[:, : nd * npos] = np.einsum("kji,ka->kjai", J[1:], self.B[1:]).reshape(self.n_rows, -1)
-        return h[1:].ravel(), np.tile(np.minimum(h[0], 0.0), K - 1), C
+        return h[1:].ravel().copy(), np.tile(np.minimum(h[0], 0.0), K - 1), C  # h: a view of the map's buffer
 
     def curvature(self, x: np.ndarray, p: np.ndarray, lam: np.ndarray) -> np.ndarray:
         """Per-knot Hessians of lam . h with respect to q_k (K x n_dof^2; knot 0 has no rows: zero)."""
         (K, npos), nd = self.B.shape, self.n_dof
         out = self.curvature_map(i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p,
                                  i2=np.r_[np.zeros(self.m), lam])
-        return out["o0"].reshape(K, nd * nd)
+        return out["o0"].reshape(K, nd * nd).copy()

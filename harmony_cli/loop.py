@@ -44,7 +44,8 @@ def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duratio
         start = time.perf_counter()
         positions, rotations, extra = references(t, obs, mpc.knot_times)
         p = hand_reference_matrix(positions, rotations)
-        command, result = mpc.step(obs.q, p)
+        force_ref = extra.pop("force_ref", None)  # hands x K squeeze forces, when the admittance is on
+        command, result = mpc.step(obs.q, p, force_ref, normal_forces(obs.wrenches))
         loop_ms = 1e3 * (time.perf_counter() - start)
         row = {"step": step, "t": t, "solve_ms": 1e3 * result.solve_time, "build_ms": 1e3 * result.build_time,
                "loop_ms": loop_ms, "status": result.status,
@@ -59,6 +60,9 @@ def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duratio
             row[f"{hand}_error_m"] = float(np.linalg.norm(err))
             row[f"{hand}_rot_error_deg"] = rotation_error_deg(obs.hand_rotations[h], rotations[0, h])
             row[f"{hand}_force_normal_N"] = float(normal_forces(obs.wrenches)[h])  # wrist sensor, pad pressed > 0
+            if force_ref is not None:
+                row[f"{hand}_force_ref_N"] = float(force_ref[h, 0])
+                row[f"{hand}_offset_m"] = float(command.offsets[h])  # compliant offset commanded along the normal
             row |= {f"{hand}_force_{a}_N": v for a, v in zip("xyz", obs.wrenches[h, :3])}  # grasp frame
         row |= {f"q_{j}": v for j, v in zip(robot.joint_names, obs.q)}
         row |= {f"cmd_q_{j}": v for j, v in zip(robot.joint_names, command.q)}

@@ -34,6 +34,8 @@ static const casadi_int NL_INDEX[] = {{{nl_index}}};  /* Hessian nonzero -> knot
 static const casadi_real LIN_VALS[] = {{{lin_vals}}};
 static const casadi_int L_PTR[] = {{{L_ptr}}}, L_IND[] = {{{L_ind}}};  /* linear residual L x + c, CSR */
 static const casadi_real L_VAL[] = {{{L_val}}}, C0[] = {{{c}}};
+static const casadi_int S_PTR[] = {{{S_ptr}}}, S_IND[] = {{{S_ind}}};  /* parameters in it: + S p, CSR */
+static const casadi_real S_VAL[] = {{{S_val}}};
 static const casadi_int SP_X[] = {{NV, 1, 1}}, SP_P[] = {{{n_p}, 1, 1}}, SP_F[] = {{1, 1, 1}};
 static const casadi_int SP_H[] = {{NV, NV, {h_colind}, {h_rows}}};
 
@@ -76,6 +78,7 @@ CASADI_SYMBOL_EXPORT int harmony_oracle(const casadi_real** arg, casadi_real** r
     for (i = 0; i < NLIN; ++i) {{
       casadi_real s = C0[i];
       for (z = L_PTR[i]; z < L_PTR[i + 1]; ++z) s += L_VAL[z] * x[L_IND[z]];
+      for (z = S_PTR[i]; z < S_PTR[i + 1]; ++z) s += S_VAL[z] * p[S_IND[z]];
       RL[i] = s; f += s * s;
     }}
     if (res[0]) res[0][0] = f;
@@ -178,7 +181,7 @@ def native_oracle(model: KnotDerivatives, n_p: int) -> cs.Function | None:
         cg.add(f)
     names = {kind: f.name() for kind, f in maps.items()}
     n, (K, npos) = model.n_vars, model.B.shape
-    L = model.L.tocsr()
+    L, S = model.L.tocsr(), model.S.tocsr()
     colind = np.r_[0, np.cumsum(np.bincount(model.cols, minlength=n))]
     hessians = (EXACT_HESSIANS if model.exact else GAUSS_NEWTON_HESSIANS).format(**names)
     source = cg.dump() + ASSEMBLY.format(
@@ -187,7 +190,8 @@ def native_oracle(model: KnotDerivatives, n_p: int) -> cs.Function | None:
         sz_iw=max(f.sz_iw() for f in maps.values()), sz_w=max(f.sz_w() for f in maps.values()),
         B=_c_array(model.B), W=_c_array(model.W), nl_index=_c_array(model.nl_index),
         lin_vals=_c_array(model.lin_vals), L_ptr=_c_array(L.indptr), L_ind=_c_array(L.indices),
-        L_val=_c_array(L.data), c=_c_array(model.c), h_colind=_c_array(colind), h_rows=_c_array(model.rows),
+        L_val=_c_array(L.data), c=_c_array(model.c), S_ptr=_c_array(S.indptr), S_ind=_c_array(S.indices),
+        S_val=_c_array(S.data), h_colind=_c_array(colind), h_rows=_c_array(model.rows),
         knot_hessians=hessians, **names)
     try:
         return cs.external("harmony_oracle", str(shared_library("harmony_oracle", source)))

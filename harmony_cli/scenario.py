@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union
@@ -182,12 +183,32 @@ class PhaseSpec(Strict):
     duration: PositiveFloat
     hands: dict[str, HandTarget] = Field(description="hand label -> absolute [x, y, z], relative target or null")
     squeeze: float = Field(0.0, ge=0, description="goals moved towards each other by this much in total [m]")
+    force: float = Field(0.0, ge=0, description="squeeze force reference per pad [N] (admittance; without it, "
+                                                "the equivalent position squeeze force / stiffness per pad)")
     grasp: bool = Field(False, description="the box is held from the end of this phase")
     release: bool = Field(False, description="the box is let go during this phase")
 
 
 class TaskSpec(Strict):
     phases: list[PhaseSpec] = Field(min_length=1)
+
+
+class AdmittanceSpec(Strict):
+    """Compliance along each pad's normal inside the whole-body MPC (formulation.md section 3): per hand a compliant
+    offset dp (Bezier control points, or values at the knots) with F_meas + m dp'' + D dp' + K dp -> F_ref."""
+
+    enabled: bool = False
+    mass: PositiveFloat = Field(0.3113, description="m [kg]")
+    stiffness: PositiveFloat = Field(1500.0, description="K [N/m]")
+    damping: PositiveFloat | None = Field(None, description="D [N s/m]; null: critical, 2 sqrt(m K)")
+    weight: float = Field(0.1, ge=0, description="admittance cost ||F_hat - F_ref||^2 [1/N^2], mean over knots")
+    ramp: PositiveFloat = Field(1.0, description="quintic blend of the force reference at a phase start [s]")
+    max_offset: PositiveFloat = Field(0.05, description="bound on the compliant offset [m]")
+    max_offset_rate: PositiveFloat = Field(0.5, description="bound on its rate [m/s]")
+
+    @property
+    def damping_value(self) -> float:
+        return self.damping if self.damping is not None else 2.0 * math.sqrt(self.mass * self.stiffness)
 
 
 HARMONY_SOLVERS = ("gauss_newton", "rti")  # harmony's own Gauss-Newton SQP and real-time iteration
@@ -211,6 +232,10 @@ class SimSpec(Strict):
     duration: PositiveFloat = Field(26.0, description="closed-loop run length [s]")
     position_gain: float = Field(0.5, gt=0, le=1, description="PyBullet position-control gain of chest/arms/head")
     velocity_gain: float = Field(1.0, gt=0, description="PyBullet velocity gain of chest/arms/head")
+    pad_stiffness: PositiveFloat | None = Field(
+        None, description="contact stiffness of the tools below the wrist sensors [N/m] (a rubber pad); null: rigid")
+    pad_damping: PositiveFloat = Field(100.0, description="contact damping of the pads when pad_stiffness is set "
+                                                           "[N s/m]")
 
     @field_validator("control_dt")
     @classmethod
@@ -240,6 +265,7 @@ class Scenario(Strict):
     world: WorldSpec = WorldSpec()
     planner: PlannerSpec = PlannerSpec()
     mpc: MpcSpec = MpcSpec()
+    admittance: AdmittanceSpec = AdmittanceSpec()
     solver: SolverSpec = SolverSpec()
     sim: SimSpec = SimSpec()
 

@@ -70,6 +70,10 @@ class Simulation:
         for link in range(-1, self.client.getNumJoints(self.body)):  # Bullet multiplies the two bodies' values
             self.client.changeDynamics(self.body, link, lateralFriction=1.0, spinningFriction=1.0)
         self.wrists = WristSensors(self.client, self.body, [by_name[j] for j in robot.wrist_sensors], self.hand_links)
+        if sim_spec.pad_stiffness is not None:  # compliant pads: what the force loop presses against is not rigid
+            for link in {link for tool in self.wrists.tools for link in tool}:
+                self.client.changeDynamics(self.body, link, contactStiffness=sim_spec.pad_stiffness,
+                                           contactDamping=sim_spec.pad_damping)
         self.world = World(self.client, world) if world is not None else None
         self.time = 0.0
 

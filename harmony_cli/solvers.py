@@ -43,7 +43,7 @@ class SolveResult:
 
 @dataclass
 class Problem:
-    """A built MPC problem: f = sum of named terms = ||r_task(q_k)||^2 summed over knots + ||L x + c||^2,
+    """A built MPC problem: f = sum of named terms = ||r_task(q_k)||^2 summed over knots + ||L x + c + S p||^2,
     subject to lb <= A x <= ub and, if `constraint` is given, constraint(q_k, ref_k) >= 0 at knots k >= 1."""
 
     x: cs.SX
@@ -56,8 +56,9 @@ class Problem:
     task_residual: cs.Function  # (q[n_dof], ref[m]) -> r[m]
     position_basis: np.ndarray  # K x n_pos
     ref_shape: tuple[int, int]  # p = vec(ref) with ref m x K
-    L: np.ndarray  # linear residual r_lin = L x + c
+    L: np.ndarray  # linear residual r_lin = L x + c + S p
     c: np.ndarray
+    S: np.ndarray | None = None  # None: no parameters in the linear residual
     constraint: cs.Function | None = None  # (q[n_dof], ref[m]) -> h, e.g. obstacle clearance margins
     term_values: cs.Function = field(init=False)
 

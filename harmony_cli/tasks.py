@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harmony_cli.scenario import PhaseSpec, RelativeTarget, TaskSpec
+from harmony_cli.scenario import AdmittanceSpec, PhaseSpec, RelativeTarget, TaskSpec
 
 
 @dataclass(frozen=True)
@@ -17,13 +17,35 @@ class ActivePhase:
     end: float
 
 
-class Schedule:
-    """Phases back to back from t = 0; after the last phase its goal is held."""
+def quintic(s: np.ndarray) -> np.ndarray:
+    """0 -> 1 with zero slope and curvature at both ends, for s in [0, 1] (clipped outside)."""
+    s = np.clip(s, 0.0, 1.0)
+    return s ** 3 * (10 - 15 * s + 6 * s * s)
 
-    def __init__(self, task: TaskSpec, hand_names: tuple[str, ...]):
+
+class Schedule:
+    """Phases back to back from t = 0; after the last phase its goal is held. Squeeze forces go to the admittance
+    (blended in over `admittance.ramp` at a phase start) or, without it, become a position squeeze F / K per pad."""
+
+    def __init__(self, task: TaskSpec, hand_names: tuple[str, ...], admittance: AdmittanceSpec | None = None):
         self.phases, self.hand_names = task.phases, hand_names
         self.ends = np.cumsum([p.duration for p in task.phases])
         self.duration = float(self.ends[-1])
+        self.admittance = admittance if admittance is not None else AdmittanceSpec()
+
+    def force(self, times: np.ndarray) -> np.ndarray:
+        """Squeeze force reference per pad [N] at each time (0 without admittance)."""
+        if not self.admittance.enabled:
+            return np.zeros(np.size(times))
+        target = np.array([p.force for p in self.phases])
+        i = np.minimum(np.searchsorted(self.ends, times, side="right"), len(self.phases) - 1)
+        start = np.r_[0.0, self.ends[:-1]][i]
+        before = np.r_[0.0, target[:-1]][i]
+        return before + (target[i] - before) * quintic((np.asarray(times) - start) / self.admittance.ramp)
+
+    def squeeze(self, phase: PhaseSpec) -> float:
+        """Total position squeeze [m]: the phase's own, plus 2 F / K when no admittance loop controls the force."""
+        return phase.squeeze + (0.0 if self.admittance.enabled else 2 * phase.force / self.admittance.stiffness)
 
     def at(self, t: float) -> ActivePhase:
         i = min(int(np.searchsorted(self.ends, t, side="right")), len(self.phases) - 1)
@@ -43,11 +65,12 @@ class Schedule:
                 goal[h] = position + np.array([c * ox - s * oy, s * ox + c * oy, oz])
             elif target is not None:
                 goal[h] = target
-        if phase.squeeze and len(goal) == 2:
+        squeeze = self.squeeze(phase)
+        if squeeze and len(goal) == 2:
             across = goal[1] - goal[0]
             across /= max(np.linalg.norm(across), 1e-9)
-            goal[0] += 0.5 * phase.squeeze * across
-            goal[1] -= 0.5 * phase.squeeze * across
+            goal[0] += 0.5 * squeeze * across
+            goal[1] -= 0.5 * squeeze * across
         return goal
 
     def holding(self, t: float) -> bool:

@@ -24,7 +24,7 @@ class TaskReferences:
 
     def __init__(self, robot: Robot, scenario, sim):
         self.scenario, self.sim, self.world = scenario, sim, sim.world
-        self.schedule = Schedule(scenario.task, robot.hand_names)
+        self.schedule = Schedule(scenario.task, robot.hand_names, scenario.admittance)
         poses = robot.hand_poses_numeric(robot.home)
         self.home_rotations = np.array([r for _, r in poses])
         p0, p1 = (p.ravel() for p, _ in poses)
@@ -66,6 +66,8 @@ class TaskReferences:
                     "planner_clearance_m": self.result.min_clearance}
         self.step_count += 1
         positions, rotations = self.result.plan.sample(t + knot_times)
+        if self.schedule.admittance.enabled:
+            row["force_ref"] = np.tile(self.schedule.force(t + knot_times), (len(self.schedule.hand_names), 1))
         return positions, rotations, row
 
     def watch(self, t: float, obs) -> dict:

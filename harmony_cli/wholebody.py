@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import casadi as cs
 import numpy as np
@@ -21,6 +21,7 @@ class Command:
     q: np.ndarray  # position targets at t + control_dt
     qd: np.ndarray  # velocity targets (base: mean velocity over the control period)
     held: bool  # True when the solve failed and the last good plan was used
+    offsets: np.ndarray = field(default_factory=lambda: np.zeros(0))  # planned compliant offsets at t + control_dt (admittance) [m]
 
 
 @dataclass(frozen=True)
@@ -60,49 +61,63 @@ def clearance_margins(robot: Robot, q, obstacle_poses, clearances: tuple[Clearan
     return margins
 
 
-def clearance_function(robot: Robot, clearances: tuple[Clearance, ...], footprint: tuple) -> cs.Function:
-    """h(q, ref) >= 0 per knot (ref as in task_residual_function): the hard clearance constraints."""
-    H = len(robot.end_effectors)
-    q, ref = cs.SX.sym("q", robot.n_dof), cs.SX.sym("ref", 12 * H + 4 * len(clearances))
-    return cs.Function("clearance", [q, ref], [cs.vertcat(*clearance_margins(robot, q, ref[12 * H:], clearances,
-                                                                              footprint))])
+def clearance_function(robot: Robot, clearances: tuple[Clearance, ...], footprint: tuple,
+                       compliant: bool = False) -> cs.Function:
+    """h(q, ref) >= 0 per knot (q, ref as in task_residual_function): the hard clearance constraints."""
+    H, nd = len(robot.end_effectors), robot.n_dof
+    q = cs.SX.sym("q", nd + (H if compliant else 0))
+    ref = cs.SX.sym("ref", knot_param_rows(H, len(clearances), compliant))
+    return cs.Function("clearance", [q, ref], [cs.vertcat(*clearance_margins(robot, q[:nd], ref[12 * H:],
+                                                                              clearances, footprint))])
+
+
+def knot_param_rows(n_hands: int, n_obstacles: int, compliant: bool) -> int:
+    """Rows of the per-knot parameters: per hand [p_ref (3); vec(R_ref) (9)], per obstacle [centre (3); yaw],
+    then if compliant per hand F_ref and per hand F_meas [N]."""
+    return 12 * n_hands + 4 * n_obstacles + (2 * n_hands if compliant else 0)
 
 
 def task_residual_function(robot: Robot, weights, n_knots: int, clearances: tuple[Clearance, ...] = (),
-                           footprint: tuple[tuple[float, float, float], ...] = (), soft: bool = False) -> cs.Function:
-    """Weighted per-knot residual r(q, ref) = [sqrt(w_p/K)(p - p_ref); sqrt(w_o/K) vec(R - R_ref)] per hand, then
-    if `soft`, sqrt(w_c/K) max(0, -margin) for every clearance margin (squared in the cost: C1).
+                           footprint: tuple[tuple[float, float, float], ...] = (), soft: bool = False,
+                           compliant: bool = False) -> cs.Function:
+    """Weighted per-knot residual r(q, ref) = [sqrt(w_p/K)(p - p_ref - dp n); sqrt(w_o/K) vec(R - R_ref)] per
+    hand, then if `soft`, sqrt(w_c/K) max(0, -margin) for every clearance margin (squared in the cost: C1).
 
-    ref stacks per hand [p_ref (3); vec(R_ref) (9)], then per obstacle [centre (3); yaw];
-    ||R - R_ref||_F^2 = 2(3 - tr(R_ref^T R)) is sign-safe.
+    q = [joints; dp per hand if compliant]: dp is the compliant offset along the pad normal n = R e_z.
+    ref: see knot_param_rows. ||R - R_ref||_F^2 = 2(3 - tr(R_ref^T R)) is sign-safe.
     """
-    H = len(robot.end_effectors)
-    q = cs.SX.sym("q", robot.n_dof)
-    ref = cs.SX.sym("ref", 12 * H + 4 * len(clearances))
+    H, nd = len(robot.end_effectors), robot.n_dof
+    q = cs.SX.sym("q", nd + (H if compliant else 0))
+    ref = cs.SX.sym("ref", knot_param_rows(H, len(clearances), compliant))
     wp, wo = np.sqrt(weights.position / n_knots), np.sqrt(weights.orientation / n_knots)
     parts = []
     for h in range(H):
-        p, R = robot.hand_pose(h, q)
+        p, R = robot.hand_pose(h, q[:nd])
+        if compliant:
+            p = p - R[:, 2] * q[nd + h]
         parts += [wp * (p - ref[12 * h: 12 * h + 3]), wo * (cs.vec(R) - ref[12 * h + 3: 12 * h + 12])]
     if soft:
         wc = np.sqrt(weights.clearance / n_knots)
-        parts += [wc * cs.fmax(0, -m) for m in clearance_margins(robot, q, ref[12 * H:], clearances, footprint)]
+        parts += [wc * cs.fmax(0, -m) for m in clearance_margins(robot, q[:nd], ref[12 * H:], clearances, footprint)]
     return cs.Function("task_residual", [q, ref], [cs.vertcat(*parts)])
 
 
 def build_problem(robot: Robot, transcription, weights, chest_joints, mirrored_joints,
-                  clearances: tuple[Clearance, ...] = (), footprint: tuple = (), clearance: str = "hard") -> Problem:
+                  clearances: tuple[Clearance, ...] = (), footprint: tuple = (), clearance: str = "hard",
+                  admittance=None) -> Problem:
     """The MPC-W problem from one spec for either transcription, modelled with OpTaS's builder. Clearance is
-    `hard` (rows h(q_k) >= 0 at knots k >= 1) or `soft` (a squared-hinge cost term)."""
-    K, H = transcription.n_knots, len(robot.end_effectors)
+    `hard` (rows h(q_k) >= 0 at knots k >= 1) or `soft` (a squared-hinge cost term). With `admittance`, the
+    transcription carries one compliant offset per hand after the joints (see task_residual_function)."""
+    K, H, nd = transcription.n_knots, len(robot.end_effectors), robot.n_dof
+    compliant = admittance is not None
     builder = optas.OptimizationBuilder(T=1)
     parts = [builder.add_decision_variables(name, *shape) for name, shape in transcription.variable_shapes.items()]
     x = cs.vertcat(*[cs.vec(v) for v in parts])
-    ref = builder.add_parameter("knot_params", 12 * H + 4 * len(clearances), K)  # hand refs, obstacle poses
+    ref = builder.add_parameter("knot_params", knot_param_rows(H, len(clearances), compliant), K)
     q, dq, ddq = transcription.knots(x)
 
     soft = clearance == "soft" and bool(clearances)
-    task_residual = task_residual_function(robot, weights, K, clearances, footprint, soft)
+    task_residual = task_residual_function(robot, weights, K, clearances, footprint, soft, compliant)
     residual = task_residual.map(K)(q, ref)
     for h, hand in enumerate(robot.hand_names):
         builder.add_cost_term(f"position_{hand}", cs.sumsqr(residual[12 * h: 12 * h + 3, :]))
@@ -122,20 +137,38 @@ def build_problem(robot: Robot, transcription, weights, chest_joints, mirrored_j
         "velocity": np.sqrt(weights.velocity / K) * dq[moving, :],
         "acceleration": np.sqrt(weights.acceleration / ddq.shape[1]) * ddq[moving, :],
     }
+    if compliant:  # F_hat = F_meas + m dp'' + D dp' + K dp -> F_ref at every knot (linear in x and p)
+        ddq_k = ddq if ddq.shape[1] == K else cs.horzcat(ddq, ddq[:, -1])  # traditional: K - 1 differences
+        w, forces = np.sqrt(admittance.weight / K), 12 * H + 4 * len(clearances)
+        for h, hand in enumerate(robot.hand_names):
+            f_hat = (ref[forces + H + h, :] + admittance.mass * ddq_k[nd + h, :]
+                     + admittance.damping_value * dq[nd + h, :] + admittance.stiffness * q[nd + h, :])
+            linear[f"admittance_{hand}"] = w * (f_hat - ref[forces + h, :])
     linear = {name: r for name, r in linear.items() if r.numel() > 0}  # e.g. a robot without a chest joint
     for name, r in linear.items():
         builder.add_cost_term(name, cs.sumsqr(r))
     optimization = builder.build()
 
-    constraint = clearance_function(robot, clearances, footprint) if clearances and not soft else None
-    r_lin = cs.vertcat(*[cs.vec(r) for r in linear.values()])
-    L, c = (np.array(v) for v in cs.Function("lin", [x], [cs.jacobian(r_lin, x), r_lin])(np.zeros(x.numel())))
-    A, lb, ub = linear_rows(x, transcription.linear_constraints(x, robot.velocity_limit))
+    constraint = clearance_function(robot, clearances, footprint, compliant) if clearances and not soft else None
+    r_lin, p = cs.vertcat(*[cs.vec(r) for r in linear.values()]), optimization.parameters.vec()
+    if not cs.is_linear(r_lin, cs.vertcat(x, p)):
+        raise ValueError("the linear cost residuals are not affine in the decision variables and parameters")
+    L, S, c = (np.array(v) for v in cs.Function("lin", [x, p], [cs.jacobian(r_lin, x), cs.jacobian(r_lin, p),
+                                                                r_lin])(np.zeros(x.numel()), np.zeros(p.numel())))
+    A, lb, ub = linear_rows(x, transcription.linear_constraints(x, joint_limits(robot, admittance)[2]))
     return Problem(
-        x=x, p=optimization.parameters.vec(), terms={k: optimization.cost_terms[k] for k in optimization.cost_terms},
+        x=x, p=p, terms={k: optimization.cost_terms[k] for k in optimization.cost_terms},
         A=A, lb=lb, ub=ub, task_residual=task_residual,
-        position_basis=transcription.position_basis, ref_shape=(ref.shape[0], K), L=L, c=c.ravel(),
+        position_basis=transcription.position_basis, ref_shape=(ref.shape[0], K), L=L, c=c.ravel(), S=S,
         constraint=constraint if constraint is not None and constraint.numel_out(0) else None)
+
+
+def joint_limits(robot: Robot, admittance=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(lower, upper, velocity limit) of the MPC's q: the joints, then the compliant offsets if any."""
+    n = len(robot.end_effectors) if admittance is not None else 0
+    offset, rate = (admittance.max_offset, admittance.max_offset_rate) if n else (0.0, 0.0)
+    return (np.r_[robot.lower, np.full(n, -offset)], np.r_[robot.upper, np.full(n, offset)],
+            np.r_[robot.velocity_limit, np.full(n, rate)])
 
 
 class WholeBodyMPC:
@@ -144,7 +177,10 @@ class WholeBodyMPC:
     def __init__(self, robot: Robot, scenario, control_dt: float):
         start = time.perf_counter()
         self.robot, self.control_dt = robot, control_dt
-        self.transcription = make_transcription(scenario.mpc, robot.n_dof)
+        self.admittance = scenario.admittance if scenario.admittance.enabled else None
+        self.n_hands = len(robot.end_effectors)
+        self.limits = joint_limits(robot, self.admittance)
+        self.transcription = make_transcription(scenario.mpc, self.limits[0].size)
         world, margin = scenario.world, scenario.planner.hand_radius
         shapes = [obstacle_shape(o) for o in world.obstacles]
         self.clearances = tuple(Clearance(s.kind, s.half, o.margin, o.margin + margin)
@@ -157,7 +193,7 @@ class WholeBodyMPC:
         self.problem = build_problem(robot, self.transcription, scenario.mpc.weights, scenario.robot.chest_joints,
                                      scenario.robot.mirrored_joints, self.clearances,
                                      tuple(map(tuple, scenario.robot.footprint)) if self.clearances else (),
-                                     scenario.mpc.clearance)
+                                     scenario.mpc.clearance, self.admittance)
         self.solver = make_solver(self.problem, scenario.solver)
         self.build_time = time.perf_counter() - start
         self.x = None  # last good solution
@@ -172,14 +208,20 @@ class WholeBodyMPC:
         positions = np.tile(q_now[:, None], t.position_basis.shape[1]).ravel("F")
         return np.concatenate([positions, np.zeros(t.n_vars - positions.size)])
 
-    def step(self, q_now: np.ndarray, hand_ref: np.ndarray) -> tuple[Command, SolveResult]:
-        """hand_ref: (12 * hands) x K references at the knot times (see task_residual_function)."""
-        self.params = np.vstack([hand_ref, self.obstacle_poses]).ravel(order="F")
+    def step(self, q_now: np.ndarray, hand_ref: np.ndarray, force_ref: np.ndarray | None = None,
+             force_meas: np.ndarray | None = None) -> tuple[Command, SolveResult]:
+        """hand_ref: (12 * hands) x K references at the knot times (see task_residual_function); with admittance,
+        force_ref: hands x K squeeze force references and force_meas: (hands,) measured pad normal forces [N]."""
+        rows = [hand_ref, self.obstacle_poses]
+        if self.admittance is not None:
+            K = self.transcription.n_knots
+            rows += [np.zeros((self.n_hands, K)) if force_ref is None else force_ref,
+                     np.tile(np.zeros(self.n_hands) if force_meas is None else force_meas, (K, 1)).T]
+        self.params = np.vstack(rows).ravel(order="F")
         t, dt, robot = self.transcription, self.control_dt, self.robot
-        q_init = q_now.copy()
+        q_init = np.r_[q_now, np.zeros(t.n_dof - q_now.size)]  # the compliant offsets start at 0
         q_init[self.pinned] = robot.home[self.pinned]
-        lbx, ubx = t.bounds(robot.lower, robot.upper, robot.velocity_limit, q_init, self.pinned,
-                            robot.home[self.pinned])
+        lbx, ubx = t.bounds(*self.limits, q_init, self.pinned, robot.home[self.pinned])
         x0 = self._constant(q_init) if self.x is None else t.shift(self.x, dt)
         result = self.solver.solve(np.clip(x0, lbx, ubx), lbx, ubx, self.params)
         held = not result.success
@@ -190,4 +232,5 @@ class WholeBodyMPC:
         q_cmd, qd_cmd = t.readout(self.x, dt)
         base = list(robot.base_joints)  # velocity-commanded: the plan's mean velocity over the period
         qd_cmd[base] = (q_cmd[base] - t.readout(self.x, 0.0)[0][base]) / dt
-        return Command(q_cmd, qd_cmd, held), result
+        nd = robot.n_dof
+        return Command(q_cmd[:nd], qd_cmd[:nd], held, q_cmd[nd:]), result
