@@ -49,6 +49,11 @@ def test_the_box_is_lifted_by_friction_alone_and_never_dropped(tmp_path):
     assert held["box_touches_robot"].all()
     assert steps["box_z"].iloc[-1] - steps["box_z"].iloc[0] > 0.08  # lifted (the goal: 12 cm)
     assert held["box_tilt_deg"].max() < 20
+    # the squeeze is the admittance's 20 N force loop, measured by the wrist sensors once the ramp is over
+    settled = steps[steps["left_force_ref_N"] >= 20.0]
+    for hand in ("left", "right"):
+        error = settled[f"{hand}_force_normal_N"] - settled[f"{hand}_force_ref_N"]
+        assert len(settled) > 100 and np.sqrt(np.mean(error ** 2)) < 3.0
 
 
 def test_video_is_written_headless_with_one_frame_per_tenth_of_a_second(tmp_path):
