@@ -68,7 +68,7 @@ class Simulation:
         for link in range(-1, self.client.getNumJoints(self.body)):  # Bullet multiplies the two bodies' values
             self.client.changeDynamics(self.body, link, lateralFriction=1.0, spinningFriction=1.0)
         self.world = World(self.client, world) if world is not None else None
-        self.time = 0.0
+        self.physics_steps = 0
 
     def observe(self) -> Observation:
         states = self.client.getJointStates(self.body, self.joints)
@@ -95,7 +95,13 @@ class Simulation:
     def step(self, substeps: int) -> None:
         for _ in range(substeps):
             self.client.stepSimulation()
-        self.time += substeps * self.spec.physics_dt
+            self.physics_steps += 1
+            if self.world is not None:
+                self.world.move_obstacles(self.time)
+
+    @property
+    def time(self) -> float:
+        return self.physics_steps * self.spec.physics_dt
 
     def close(self) -> None:
         self.client.disconnect()
