@@ -34,8 +34,8 @@ def _row(run: Path) -> dict:
            "steps": s.get("steps")}
     moving = task.get("min_clearance_moving_m", {})
     for name, c in clearance.items():
-        label = f"clearance {name}{' (moving)' if name in moving else ''} (robot, box) [m]"
-        row[label] = f"{c['robot']:.3f}, {c['box']:.3f}" if "box" in c else f"{c['robot']:.3f}"
+        value = f"{c['robot']:.3f}, {c['box']:.3f}" if "box" in c else f"{c['robot']:.3f}"
+        row[f"clearance {name} (robot, box) [m]"] = value + (" (moving)" if name in moving else "")
     return row
 
 
