@@ -54,6 +54,9 @@ def run(scenario: Path, set: List[str] = typer.Option([], "--set", help=SET_HELP
         typer.echo(f"task: success {task.get('success')}, box goal error {task.get('box_goal_error_m')}, dropped "
                    f"{task.get('box_dropped')}, min clearance {clear:.3f} m, loop median {loop['median']:.2f} / "
                    f"p95 {loop['p95']:.2f} / max {loop['max']:.2f} ms, planner failures {task['planner_failures']}")
+        for name, c in task.get("min_clearance_moving_m", {}).items():
+            clearances = ", ".join(f"{who} {v:.3f} m" for who, v in c.items())
+            typer.echo(f"moving obstacle {name}: min clearance {clearances}")
     if "video" in summary:
         typer.echo(f"video: {summary['video']}")
 
@@ -113,6 +116,26 @@ def experiments(runs: List[Path] = typer.Argument(..., help="Run directories of 
         _fail(f"not run directories (no summary.json): {', '.join(missing)}")
     for path in experiments_report(list(runs), out, name):
         typer.echo(path)
+
+
+@app.command()
+def paths(runs: List[Path] = typer.Argument(..., help="Run directories of one scene (e.g. with and without motion)"),
+          out: Path = typer.Option(..., help="Image file (.png)"),
+          title: str = typer.Option("", help="Figure title (default: the first run's scenario name)")):
+    """Top-down paths of several runs of one scene overlaid: base, hands, box and each run's moving obstacles."""
+    import pandas as pd
+
+    from harmony_cli.plots import plot_paths_compared
+
+    missing = [str(r) for r in runs if not (r / "steps.csv").exists()]
+    if missing:
+        _fail(f"not run directories (no steps.csv): {', '.join(missing)}")
+    try:
+        loaded = {r.name: (pd.read_csv(r / "steps.csv"), load_scenario(r / "scenario.resolved.yaml")) for r in runs}
+    except ScenarioError as exc:
+        _fail(str(exc))
+    out.parent.mkdir(parents=True, exist_ok=True)
+    typer.echo(plot_paths_compared(out, loaded, title))
 
 
 @app.command()

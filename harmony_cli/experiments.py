@@ -32,9 +32,10 @@ def _row(run: Path) -> dict:
            "planner failures": task.get("planner_failures"), "MPC failures": s.get("failed_solves"),
            "phases completed": f"{sum(p['completed_s'] is not None for p in phases)} / {len(phases)}",
            "steps": s.get("steps")}
+    moving = task.get("min_clearance_moving_m", {})
     for name, c in clearance.items():
-        row[f"clearance {name} (robot, box) [m]"] = f"{c['robot']:.3f}, {c['box']:.3f}" if "box" in c \
-            else f"{c['robot']:.3f}"
+        value = f"{c['robot']:.3f}, {c['box']:.3f}" if "box" in c else f"{c['robot']:.3f}"
+        row[f"clearance {name} (robot, box) [m]"] = value + (" (moving)" if name in moving else "")
     return row
 
 

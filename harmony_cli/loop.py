@@ -7,6 +7,7 @@ from typing import Callable
 
 import numpy as np
 
+from harmony_cli.motion import Predictor
 from harmony_cli.reference import HandReference
 from harmony_cli.sim import Simulation
 from harmony_cli.wholebody import WholeBodyMPC
@@ -31,11 +32,12 @@ def rotation_error_deg(r: np.ndarray, r_ref: np.ndarray) -> float:
 
 def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duration: float, control_dt: float,
              substeps: int, record: Callable[[dict], None], on_step: Callable[[int, int], None] = lambda i, n: None,
-             watch: Callable[[float, object], dict] | None = None):
+             watch: Callable[[float, object], dict] | None = None, predict: Predictor | None = None):
     """Run the whole scenario; every step's record goes to `record` as soon as it exists (nothing is lost).
 
-    `loop_ms` is the wall time from the observation to the command: references (planner) + whole-body MPC;
-    `watch(t, obs)` adds logged fields measured outside it."""
+    `loop_ms` is the wall time from the observation to the command: references (planner) + obstacle prediction +
+    whole-body MPC; `watch(t, obs)` adds logged fields measured outside it. `predict` (moving obstacles) gives the
+    whole-body MPC the obstacles' centres at t + its knot times every step."""
     robot = mpc.robot
     n_steps = int(round(duration / control_dt))
     for step in range(n_steps):
@@ -45,6 +47,8 @@ def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duratio
         positions, rotations, extra = references(t, obs, mpc.knot_times)
         p = hand_reference_matrix(positions, rotations)
         force_ref = extra.pop("force_ref", None)  # hands x K squeeze forces, when the admittance is on
+        if predict is not None:
+            mpc.set_obstacle_centres(predict(t + mpc.knot_times))
         command, result = mpc.step(obs.q, p, force_ref, normal_forces(obs.wrenches))
         loop_ms = 1e3 * (time.perf_counter() - start)
         row = {"step": step, "t": t, "solve_ms": 1e3 * result.solve_time, "build_ms": 1e3 * result.build_time,
@@ -68,6 +72,8 @@ def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duratio
         row |= {f"cmd_q_{j}": v for j, v in zip(robot.joint_names, command.q)}
         row |= {f"cmd_qd_{j}": v for j, v in zip(robot.joint_names, command.qd)}
         if sim.world is not None:  # the true distances, measured by PyBullet
+            for name in sim.world.moving:
+                row |= {f"obstacle_{name}_{a}": v for a, v in zip("xyz", sim.world.obstacle_position(name))}
             for name in sim.world.obstacles:
                 row[f"clearance_robot_{name}_m"] = sim.world.clearance(sim.body, name)
                 if sim.world.box is not None:

@@ -51,6 +51,8 @@ def task_outcome(steps: pd.DataFrame, scenario, hands: list[str]) -> dict:
             _, who, *name, _ = column.split("_")
             clearances.setdefault("_".join(name), {})[who] = float(steps[column].min())
     out["min_clearance_m"] = clearances
+    moving = [o.name for o in scenario.world.obstacles if o.motion is not None]
+    out["min_clearance_moving_m"] = {name: clearances[name] for name in moving if name in clearances}
     phases = []
     goal_error = steps[[f"{h}_goal_error_m" for h in hands]].max(axis=1)
     for index, phase in enumerate(scenario.task.phases):

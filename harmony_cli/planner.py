@@ -9,15 +9,17 @@ vector across the heading (along the pad normals) and both hands at one height, 
 Start: control points 0 and 1 from the measured positions and velocities; end: the last three at the goal (at
 rest: zero velocity and acceleration). Speed and acceleration bounds on the hodograph control points. Obstacles:
 the signed distance of each hand (and, while carrying, of the object between them) at sample times stays above
-its clearance, linearised at the current plan; the hands keep the goal's distance apart. Gauss-Newton SQP over the
-free control points, one DAQP QP per iteration: `phase_iterations` at a phase change, `iterations` (1: real-time
-iteration) on every other step. When the bounds cannot be met by the phase's end, the horizon is stretched.
+its clearance, linearised at the current plan, from where the obstacle is at that time (a moving one's predicted
+centre); the hands keep the goal's distance apart. Gauss-Newton SQP over the free control points, one DAQP QP per
+iteration: `phase_iterations` at a phase change, `iterations` (1: real-time iteration) on every other step. When
+the bounds cannot be met by the phase's end, the horizon is stretched.
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Callable
 
 import casadi as cs
 import numpy as np
@@ -41,8 +43,9 @@ class HandState:
 
 @dataclass(frozen=True)
 class Obstacle:
-    shape: Shape
+    shape: Shape  # where it is at t = 0
     clearance: float  # required signed distance of a hand centre [m] (margin + hand radius)
+    motion: Callable[[np.ndarray], np.ndarray] | None = None  # absolute times (n,) -> predicted centres (n, 3)
 
 
 @dataclass(frozen=True)
@@ -92,7 +95,7 @@ class TaskPlanner:
         self.free = np.zeros((ROWS, M), dtype=bool)
         self.free[:, 2:M - 3] = True
         self.n_free = int(self.free.sum())
-        s = np.linspace(0.0, 1.0, spec.samples + 1)[1:]  # obstacle and facing samples (s = 0 is fixed)
+        s = self.s = np.linspace(0.0, 1.0, spec.samples + 1)[1:]  # obstacle and facing samples (s = 0 is fixed)
         self.B = bernstein_basis(M, s)  # (S, M)
         D1, D2 = difference_matrix(M, 1), difference_matrix(M, 2)
         eye = np.eye(ROWS)
@@ -157,14 +160,14 @@ class TaskPlanner:
         # (the hands lag, the phase is short): then the plan takes longer, and says so
         for stretch in STRETCHES:
             self._fixed(C, state, goal, heading_goal, T * stretch)
-            step, clearance, status = self._sqp_step(C, T * stretch, carried, width)
+            step, clearance, status = self._sqp_step(C, t, T * stretch, carried, width)
             if step is not None:
                 break
         T *= stretch
         suffix = f" (horizon stretched x{stretch:g})" if stretch > 1 else ""
         for it in range(1, iterations + 1):
             if it > 1:
-                step, clearance, status = self._sqp_step(C, T, carried, width)
+                step, clearance, status = self._sqp_step(C, t, T, carried, width)
             if step is None:
                 success = False
                 break
@@ -180,8 +183,9 @@ class TaskPlanner:
         plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
         return PlannerResult(plan, success, status, it, time.perf_counter() - start_time, clearance)
 
-    def _sqp_step(self, C: np.ndarray, T: float, carried: tuple[float, float] | None, width: float):
-        """One Gauss-Newton QP over the free control points: (step or None, predicted clearance, status)."""
+    def _sqp_step(self, C: np.ndarray, t: float, T: float, carried: tuple[float, float] | None, width: float):
+        """One Gauss-Newton QP over the free control points of the plan over [t, t + T]: (step or None, predicted
+        clearance, status)."""
         free = self.free.ravel()
         x = C.ravel()
         # facing residual (p_1 - p_0) . h(psi) at the samples, h = (cos, sin, 0), and its Jacobian
@@ -217,10 +221,12 @@ class TaskPlanner:
         points = [curves[0:3].T, curves[3:6].T, object_point]
         weights = [(1.0, 0.0), (0.0, 1.0), (0.5, 0.5)]
         for obstacle in self.obstacles:
+            # a moving obstacle at each sample time: the points relative to it, as if it stood at shape.centre
+            moved = 0.0 if obstacle.motion is None else obstacle.motion(t + T * self.s) - obstacle.shape.centre
             for k, (p, (w0, w1)) in enumerate(zip(points, weights)):
                 active = k < 2 or carried is not None
                 shape = obstacle.shape if k < 2 or not active else obstacle.shape.grown(carried[0])
-                dist, grad = shape.distance(p)
+                dist, grad = shape.distance(p - moved)
                 needed = obstacle.clearance
                 row = np.zeros((psi.size, ROWS, self.M))
                 for axis in range(3):

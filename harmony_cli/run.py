@@ -19,6 +19,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
 from harmony_cli.loop import run_loop, trajectory_references
 from harmony_cli.metrics import summarise, task_outcome
+from harmony_cli.motion import obstacle_predictor
 from harmony_cli.reference import HandReference
 from harmony_cli.robot import load_robot
 from harmony_cli.scenario import load_scenario, scenario_yaml
@@ -133,7 +134,8 @@ def run_scenario(path: str | Path, overrides: list[str] = (), out: Path | None =
             task = bar.add_task("run", total=int(round(scenario.sim.duration / scenario.sim.control_dt)))
             start = time.perf_counter()
             run_loop(mpc, sim, references, scenario.sim.duration, scenario.sim.control_dt, scenario.sim.substeps,
-                     record, lambda done, total: bar.update(task, completed=done), watch)
+                     record, lambda done, total: bar.update(task, completed=done), watch,
+                     obstacle_predictor(scenario.world.obstacles))
         summary["wall_time_s"] = time.perf_counter() - start
         sim.close()
         summary["status"] = "completed"

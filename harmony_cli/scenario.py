@@ -6,10 +6,12 @@ import copy
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Literal, Union, get_args
 
+import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, ValidationError, ValidationInfo, field_validator
+from pydantic import (BaseModel, ConfigDict, Field, PositiveFloat, ValidationError, ValidationInfo, field_validator,
+                      model_validator)
 
 from harmony_cli.urdf_prep import fixed_joints_above
 
@@ -127,16 +129,74 @@ class PlannerSpec(Strict):
 Vector3 = tuple[float, float, float]
 
 
+class MotionSpec(Strict):
+    """How an obstacle moves (kinematically: nothing pushes it; its yaw stays): `velocity` from `start` to `stop`
+    (from its `position`), or piecewise-linear `waypoints` [t, x, y, z], held before the first and after the last."""
+
+    velocity: Vector3 | None = Field(None, description="constant velocity [m/s]")
+    start: float = Field(0.0, ge=0, description="velocity only: the obstacle is at `position` until then [s]")
+    stop: float | None = Field(None, description="velocity only: it stays where it is from then on [s]")
+    waypoints: list[tuple[float, float, float, float]] | None = Field(
+        None, min_length=2, description="[t, x, y, z] centres at strictly increasing times [s, m]")
+
+    @field_validator("stop")
+    @classmethod
+    def _stop_after_start(cls, stop: float | None, info: ValidationInfo) -> float | None:
+        start = info.data.get("start", 0.0)
+        if stop is not None and stop <= start:
+            raise ValueError(f"must be after start ({start:g} s)")
+        return stop
+
+    @field_validator("waypoints")
+    @classmethod
+    def _times_increase(cls, waypoints):
+        for i in range(1, len(waypoints or ())):
+            if waypoints[i][0] <= waypoints[i - 1][0]:
+                raise ValueError(f"times must be strictly increasing: waypoint {i} at t = {waypoints[i][0]:g} s "
+                                 f"follows t = {waypoints[i - 1][0]:g} s")
+        return waypoints
+
+    @model_validator(mode="after")
+    def _one_kind(self):
+        if (self.velocity is None) == (self.waypoints is None):
+            raise ValueError("give exactly one of velocity: [vx, vy, vz] or waypoints: [[t, x, y, z], ...]")
+        if self.waypoints is not None and ("start" in self.model_fields_set or "stop" in self.model_fields_set):
+            raise ValueError("start / stop go with velocity; waypoints carry their own times")
+        return self
+
+
 class ObstacleSpec(Strict):
-    """A static obstacle; `size` is the full extent x, y, z for a box, [diameter, diameter, height] for a
-    cylinder and [diameter] * 3 for a sphere."""
+    """An obstacle, static or moving; `size` is the full extent x, y, z for a box, [diameter, diameter, height]
+    for a cylinder and [diameter] * 3 for a sphere."""
 
     name: str
     shape: Literal["box", "cylinder", "sphere"]
-    position: Vector3 = Field(description="centre [m]")
+    position: Vector3 = Field(description="centre [m] (at t = 0; with waypoints it may be left out)")
     yaw_deg: float = 0.0
     size: Vector3
     margin: float = Field(0.05, ge=0, description="clearance the MPCs keep from its surface [m]")
+    motion: MotionSpec | None = Field(None, description="none: static")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _position_from_waypoints(cls, raw):
+        """With waypoints, `position` defaults to their centre at t = 0 (and must be it when given)."""
+        try:
+            w = np.asarray(raw["motion"]["waypoints"], dtype=float)
+            assert w.ndim == 2 and w.shape[1] == 4
+            given = None if raw.get("position") is None else np.asarray(raw["position"], dtype=float)
+            assert given is None or given.shape == (3,)
+        except (KeyError, TypeError, ValueError, IndexError, AssertionError):
+            return raw  # no (valid) waypoints or position: the field validators say what is wrong
+        if not np.all(np.diff(w[:, 0]) > 0):  # the waypoints' validator says so
+            return raw if given is not None else raw | {"position": w[0, 1:].tolist()}
+        at_zero = [float(np.interp(0.0, w[:, 0], w[:, 1 + axis])) for axis in range(3)]
+        if given is None:
+            return raw | {"position": at_zero}
+        if not np.allclose(given, at_zero, atol=1e-9):
+            raise ValueError(f"position {given.tolist()} is not the waypoints' centre at t = 0 "
+                             f"{[round(v, 9) for v in at_zero]}; leave position out or make them agree")
+        return raw
 
 
 class TableSpec(Strict):
@@ -271,7 +331,8 @@ class Scenario(Strict):
 
 
 def apply_overrides(raw: dict, overrides: list[str]) -> dict:
-    """Apply `a.b.c=value` overrides (value parsed as YAML) to a raw scenario mapping."""
+    """Apply `a.b.c=value` overrides (value parsed as YAML) to a raw scenario mapping; a number indexes a list
+    (`world.obstacles.0.motion=null`)."""
     raw = copy.deepcopy(raw)
     for item in overrides:
         key, sep, text = item.partition("=")
@@ -280,20 +341,34 @@ def apply_overrides(raw: dict, overrides: list[str]) -> dict:
         node = raw
         *parents, leaf = key.split(".")
         for part in parents:
-            node = node.setdefault(part, {})
-            if not isinstance(node, dict):
-                raise ScenarioError(f"--set {item!r}: {part!r} is not a section")
+            if isinstance(node, list):
+                if not part.isdigit() or int(part) >= len(node):
+                    raise ScenarioError(f"--set {item!r}: {part!r} is not an index of a list of {len(node)}")
+                node = node[int(part)]
+            else:
+                node = node.setdefault(part, {})
+            if not isinstance(node, (dict, list)):
+                raise ScenarioError(f"--set {item!r}: {part!r} is not a section or a list")
+        if isinstance(node, list):
+            if not leaf.isdigit() or int(leaf) >= len(node):
+                raise ScenarioError(f"--set {item!r}: {leaf!r} is not an index of a list of {len(node)}")
+            leaf = int(leaf)
         node[leaf] = yaml.safe_load(text)
     return raw
 
 
 def _model_at(loc: tuple) -> type[BaseModel] | None:
+    """The model at a location such as ('world', 'obstacles', 0, 'motion'), through lists and optionals."""
     model: Any = Scenario
     for part in loc:
+        if isinstance(part, int):
+            continue
         if not (isinstance(model, type) and issubclass(model, BaseModel)) or part not in model.model_fields:
             return None
         ann = model.model_fields[part].annotation
-        model = ann if isinstance(ann, type) else None
+        models = [a for a in (ann, *get_args(ann), *(b for a in get_args(ann) for b in get_args(a)))
+                  if isinstance(a, type) and issubclass(a, BaseModel)]
+        model = models[0] if len(set(models)) == 1 else None  # a union of models: no single list of keys
     return model
 
 

@@ -75,7 +75,7 @@ class Simulation:
                 self.client.changeDynamics(self.body, link, contactStiffness=sim_spec.pad_stiffness,
                                            contactDamping=sim_spec.pad_damping)
         self.world = World(self.client, world) if world is not None else None
-        self.time = 0.0
+        self.physics_steps = 0
 
     def observe(self) -> Observation:
         states = self.client.getJointStates(self.body, self.joints)
@@ -104,7 +104,13 @@ class Simulation:
         for _ in range(substeps):
             self.wrists.before_physics_step()
             self.client.stepSimulation()
-        self.time += substeps * self.spec.physics_dt
+            self.physics_steps += 1
+            if self.world is not None:
+                self.world.move_obstacles(self.time)
+
+    @property
+    def time(self) -> float:
+        return self.physics_steps * self.spec.physics_dt
 
     def close(self) -> None:
         self.client.disconnect()

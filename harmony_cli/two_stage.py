@@ -3,8 +3,11 @@ MPC's knots; `watch` reports the box (held, dropped) for the log, outside the ti
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 
+from harmony_cli.motion import centre_at
 from harmony_cli.planner import HandState, Obstacle, TaskPlanner
 from harmony_cli.robot import Robot
 from harmony_cli.tasks import Schedule
@@ -29,7 +32,8 @@ class TaskReferences:
         self.home_rotations = np.array([r for _, r in poses])
         p0, p1 = (p.ravel() for p, _ in poses)
         offset = -np.arctan2(p1[1] - p0[1], p1[0] - p0[0])  # home heading is 0 (base yaw 0 at home)
-        obstacles = [Obstacle(obstacle_shape(o), o.margin + scenario.planner.hand_radius)
+        obstacles = [Obstacle(obstacle_shape(o), o.margin + scenario.planner.hand_radius,
+                              partial(centre_at, o) if o.motion is not None else None)  # the true motion predicts
                      for o in scenario.world.obstacles]
         self.planner = TaskPlanner(scenario.planner, obstacles, self.home_rotations, offset)
         box = scenario.world.box

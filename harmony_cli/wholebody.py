@@ -203,6 +203,12 @@ class WholeBodyMPC:
     def knot_times(self) -> np.ndarray:
         return self.transcription.knot_times
 
+    def set_obstacle_centres(self, centres: np.ndarray) -> None:
+        """Predicted centres (obstacles, K, 3) of the world's obstacles (scenario order, the first clearances) at
+        the knot times of the next `step`; yaws and table legs stay as built."""
+        for o, at_knots in enumerate(centres):
+            self.obstacle_poses[4 * o: 4 * o + 3] = at_knots.T
+
     def _constant(self, q_now: np.ndarray) -> np.ndarray:
         t = self.transcription
         positions = np.tile(q_now[:, None], t.position_basis.shape[1]).ravel("F")

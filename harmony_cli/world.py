@@ -1,5 +1,9 @@
 """The scene of a scenario: tables, the box and obstacles as PyBullet bodies, their shapes for the MPCs, and the
-true clearances PyBullet measures (closest points)."""
+true clearances PyBullet measures (closest points).
+
+A moving obstacle is a static (massless) body put where its motion says after every physics step: kinematic,
+nothing pushes it, and closest points are measured at its true position. It has no velocity in Bullet, so a
+contact would be resolved by penetration recovery alone (the runs require clearance > 0: no contact)."""
 
 from __future__ import annotations
 
@@ -7,6 +11,7 @@ import numpy as np
 import pybullet
 
 from harmony_cli.geometry import Shape
+from harmony_cli.motion import centre_at
 
 FAR = 5.0  # [m] clearances beyond this are reported as FAR (PyBullet only searches this far)
 
@@ -45,12 +50,15 @@ def _quaternion(yaw_deg: float) -> list[float]:
 
 
 class World:
-    """Static tables and obstacles, and the box as a free body (held only by friction when carried)."""
+    """Static tables, static or kinematic obstacles, and the box as a free body (held only by friction when
+    carried)."""
 
     def __init__(self, client, spec):
         self.client, self.spec = client, spec
         self.tables = {t.name: self._table(t) for t in spec.tables}
         self.obstacles = {o.name: self._obstacle(o) for o in spec.obstacles}
+        self.moving = {o.name: o for o in spec.obstacles if o.motion is not None}
+        self.move_obstacles(0.0)
         self.box = None
         if spec.box is not None:
             b = spec.box
@@ -88,6 +96,16 @@ class World:
             col = c.createCollisionShape(pybullet.GEOM_SPHERE, radius=half[0])
             vis = c.createVisualShape(pybullet.GEOM_SPHERE, radius=half[0], rgbaColor=colour)
         return c.createMultiBody(0, col, vis, o.position, _quaternion(o.yaw_deg))
+
+    def move_obstacles(self, t: float) -> None:
+        """Every moving obstacle to where its motion says at time t."""
+        for name, o in self.moving.items():
+            self.client.resetBasePositionAndOrientation(self.obstacles[name], centre_at(o, t)[0].tolist(),
+                                                        _quaternion(o.yaw_deg))
+
+    def obstacle_position(self, name: str) -> np.ndarray:
+        """An obstacle's centre as PyBullet has it."""
+        return np.array(self.client.getBasePositionAndOrientation(self.obstacles[name])[0])
 
     def pose(self, name: str) -> tuple[np.ndarray, float]:
         """Position and yaw of `box` (measured) or of a table (its top's centre)."""
