@@ -52,6 +52,7 @@ def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duratio
         reference_now = extra.pop("reference_now", positions[0])
         row |= extra | (watch(t, obs) if watch else {})
         row |= {f"cost_{k}": v for k, v in mpc.problem.evaluate_terms(result.x, mpc.params).items()}
+        contact = sim.pad_contact_forces() if sim.world is not None and sim.world.box is not None else None
         for h, hand in enumerate(robot.hand_names):
             err = obs.hand_positions[h] - reference_now[h]
             row |= {f"{hand}_ref_{a}": v for a, v in zip("xyz", reference_now[h])}
@@ -60,6 +61,9 @@ def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duratio
             row[f"{hand}_rot_error_deg"] = rotation_error_deg(obs.hand_rotations[h], rotations[0, h])
             row[f"{hand}_force_normal_N"] = float(normal_forces(obs.wrenches)[h])  # wrist sensor, pad pressed > 0
             row |= {f"{hand}_force_{a}_N": v for a, v in zip("xyz", obs.wrenches[h, :3])}  # grasp frame
+            if contact is not None:
+                row[f"{hand}_contact_N"] = float(contact[h])  # PyBullet's pad-box contact normal force
+        row |= sim.pushes.magnitudes(t)  # push_<name>_N, the force acting over the coming physics steps
         row |= {f"q_{j}": v for j, v in zip(robot.joint_names, obs.q)}
         row |= {f"cmd_q_{j}": v for j, v in zip(robot.joint_names, command.q)}
         row |= {f"cmd_qd_{j}": v for j, v in zip(robot.joint_names, command.qd)}
