@@ -28,7 +28,10 @@ def run(scenario: Path, set: List[str] = typer.Option([], "--set", help=SET_HELP
         out: Optional[Path] = typer.Option(None, help="Run directory (default results/runs/<name>-<time>)"),
         quiet: bool = typer.Option(False, help="No progress bar"),
         video: bool = typer.Option(False, "--video", help="Also record video.mp4 in the run directory (headless)"),
-        video_path: Optional[Path] = typer.Option(None, "--video-file", help="Record to this .mp4 or .gif instead")):
+        video_path: Optional[Path] = typer.Option(None, "--video-file", help="Record to this .mp4 or .gif instead"),
+        twin: bool = typer.Option(True, "--push-free-twin/--no-push-free-twin",
+                                  help="With pushes: first run the scenario without them (into <out>/push_free) and "
+                                       "measure push displacements from it")):
     """Run one scenario closed loop in PyBullet and write a run directory."""
     from harmony_cli.run import RunFailed, run_scenario
     from harmony_cli.solvers import SolverUnavailable
@@ -37,7 +40,7 @@ def run(scenario: Path, set: List[str] = typer.Option([], "--set", help=SET_HELP
         if video_path is not None and video_path.suffix.lower() not in (".mp4", ".gif"):
             _fail(f"--video-file: {str(video_path)!r} must end in .mp4 or .gif")
         target = video_path or (True if video else None)
-        run_dir = run_scenario(scenario, set, out, progress=not quiet, video=target)
+        run_dir = run_scenario(scenario, set, out, progress=not quiet, video=target, push_free_twin=twin)
     except (ScenarioError, SolverUnavailable) as exc:
         _fail(str(exc))
     except RunFailed as exc:
@@ -57,8 +60,33 @@ def run(scenario: Path, set: List[str] = typer.Option([], "--set", help=SET_HELP
         for name, c in task.get("min_clearance_moving_m", {}).items():
             clearances = ", ".join(f"{who} {v:.3f} m" for who, v in c.items())
             typer.echo(f"moving obstacle {name}: min clearance {clearances}")
+    for line in disturbance_lines(summary.get("task", summary)):
+        typer.echo(line)
     if "video" in summary:
         typer.echo(f"video: {summary['video']}")
+
+
+def _value(v, unit: str, scale: float = 1.0) -> str:
+    return "-" if v is None else f"{scale * v:.2f} {unit}"
+
+
+def disturbance_lines(outcome: dict) -> list[str]:
+    """Squeeze-force tracking and each push's response, one line each (nothing when neither was measured)."""
+    lines = []
+    if force := outcome.get("force"):
+        lines.append(f"squeeze force error (worse hand, reference > 0): RMS {_value(force['rms_N'], 'N')}, max "
+                     f"{_value(force['max_N'], 'N')}; phases: {', '.join(force['phases_with_reference'])}")
+    for name, p in outcome.get("pushes", {}).items():
+        base = p["baseline"]
+        peak = lambda key: max(base.get(key, {}).values(), default=None)
+        recovery = "never" if p["recovery_s"] is None else f"{p['recovery_s']:.2f} s"
+        lines.append(f"push {name} on {p['pushed_hand'] or p['body']} (displacement from the "
+                     f"{p['push'].get('displacement_from')}): peak displacement "
+                     f"{_value(p['peak_displacement_m'], 'cm', 100)} (baseline "
+                     f"{_value(peak('peak_displacement_m'), 'cm', 100)}), peak pad force "
+                     f"{_value(p['peak_pad_force_N'], 'N')} (baseline {_value(peak('peak_pad_force_N'), 'N')}), "
+                     f"back within 1 cm for 0.5 s after {recovery}")
+    return lines
 
 
 @app.command()

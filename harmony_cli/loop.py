@@ -57,6 +57,7 @@ def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duratio
         reference_now = extra.pop("reference_now", positions[0])
         row |= extra | (watch(t, obs) if watch else {})
         row |= {f"cost_{k}": v for k, v in mpc.problem.evaluate_terms(result.x, mpc.params).items()}
+        contact = sim.pad_contact_forces() if sim.world is not None and sim.world.box is not None else None
         for h, hand in enumerate(robot.hand_names):
             err = obs.hand_positions[h] - reference_now[h]
             row |= {f"{hand}_ref_{a}": v for a, v in zip("xyz", reference_now[h])}
@@ -68,6 +69,9 @@ def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duratio
                 row[f"{hand}_force_ref_N"] = float(force_ref[h, 0])
                 row[f"{hand}_offset_m"] = float(command.offsets[h])  # compliant offset commanded along the normal
             row |= {f"{hand}_force_{a}_N": v for a, v in zip("xyz", obs.wrenches[h, :3])}  # grasp frame
+            if contact is not None:
+                row[f"{hand}_contact_N"] = float(contact[h])  # PyBullet's pad-box contact normal force
+        row |= sim.pushes.magnitudes(t)  # push_<name>_N, the force acting over the coming physics steps
         row |= {f"q_{j}": v for j, v in zip(robot.joint_names, obs.q)}
         row |= {f"cmd_q_{j}": v for j, v in zip(robot.joint_names, command.q)}
         row |= {f"cmd_qd_{j}": v for j, v in zip(robot.joint_names, command.qd)}

@@ -78,3 +78,118 @@ def task_outcome(steps: pd.DataFrame, scenario, hands: list[str]) -> dict:
                 "box_dropped": dropped,
                 "success": bool(error is not None and error <= GOAL_TOLERANCE and upright and not dropped and clear)}
     return out
+
+
+def force_outcome(steps: pd.DataFrame, hands: list[str]) -> dict | None:
+    """Squeeze-force tracking (sensed pad normal force minus `{hand}_force_ref_N`) per phase and hand, over the
+    phase's steps whose reference is > 0 (ramps included); None when the run logs no force reference."""
+    if not all(f"{h}_force_ref_N" in steps for h in hands):
+        return None
+    phase = steps["phase"] if "phase" in steps else pd.Series("run", index=steps.index)
+
+    def stats(rows) -> dict:
+        per_hand = {}
+        for h in hands:
+            ref = steps[f"{h}_force_ref_N"]
+            used = rows & (ref > 0)
+            if used.any():
+                error = (steps[f"{h}_force_normal_N"] - ref)[used].to_numpy()
+                per_hand[h] = {"rms_N": float(np.sqrt(np.mean(error**2))), "max_N": float(np.abs(error).max()),
+                               "bias_N": float(error.mean()), "mean_ref_N": float(ref[used].mean()),
+                               "steps": int(used.sum())}
+        return per_hand
+
+    phases = {name: s for name in phase.unique() if (s := stats(phase == name))}
+    overall = stats(pd.Series(True, index=steps.index))
+    return {"phases_with_reference": list(phases), "phases": phases, "overall": overall,
+            "rms_N": max((v["rms_N"] for v in overall.values()), default=None),  # the worse hand
+            "max_N": max((v["max_N"] for v in overall.values()), default=None)}
+
+
+RECOVERED_M = 0.01  # [m] a hand within this of its reference ...
+RECOVERY_HOLD_S = 0.5  # ... for this long has recovered
+AFTER_PUSH_S = 2.0  # [s] the push's window runs this long past its end
+
+
+def recovery_time(t: np.ndarray, error: np.ndarray, t0: float, tol: float = RECOVERED_M,
+                  hold: float = RECOVERY_HOLD_S) -> float | None:
+    """Time from t0 until `error` is <= tol and stays there for >= hold (the log must cover it); None if never."""
+    run_start = None
+    for ti, e in zip(t, error):
+        if ti < t0 - 1e-9:
+            continue
+        if not e <= tol:  # NaN (unknown) is not recovered
+            run_start = None
+            continue
+        run_start = ti if run_start is None else run_start
+        if ti - run_start >= hold - 1e-9:
+            return float(run_start - t0)
+    return None
+
+
+def push_windows(push, after: float = AFTER_PUSH_S) -> tuple[tuple[float, float], tuple[float, float]]:
+    """The baseline window just before a push and the push's own window [start, end + after), equally long."""
+    length = push.duration + after
+    return (max(0.0, push.start - length), push.start), (push.start, push.start + length)
+
+
+def displacement_from_twin(steps: pd.DataFrame, twin: pd.DataFrame, hands: list[str]) -> pd.DataFrame:
+    """`steps` with `{hand}_push_displacement_m`: each hand's distance from where it was at the same step of the
+    push-free run of the same scenario (the loop is deterministic: exactly 0 before the first push; NaN past the
+    push-free run's end)."""
+    by_step = twin.set_index("step")
+    columns = {}
+    for h in hands:
+        xyz = [f"{h}_meas_{a}" for a in "xyz"]
+        other = by_step[xyz].reindex(steps["step"]).to_numpy()
+        columns[f"{h}_push_displacement_m"] = np.linalg.norm(steps[xyz].to_numpy() - other, axis=1)
+    return steps.assign(**columns)
+
+
+def _window(steps: pd.DataFrame, hands: list[str], focus: list[str], start: float, end: float) -> dict:
+    """Over [start, end), per hand: peak displacement (from the push-free run when known, else from the live
+    reference), peak tracking error, peak sensed pad force (and PyBullet contact force); the recovery time of the
+    focus hands (the worse of them) from `start`."""
+    part = steps[(steps["t"] >= start - 1e-9) & (steps["t"] < end - 1e-9)]
+    if part.empty:
+        return {"window_s": [start, end], "steps": 0}
+    twin = all(f"{h}_push_displacement_m" in part for h in hands)
+    displacement = "_push_displacement_m" if twin else "_error_m"
+    peak = lambda suffix: {h: float(part[h + suffix].max()) for h in hands}
+    out = {"window_s": [start, end], "steps": int(len(part)),
+           "displacement_from": "push-free run" if twin else "reference",
+           "peak_displacement_m": peak(displacement), "peak_error_m": peak("_error_m"),
+           "peak_pad_force_N": peak("_force_normal_N")}
+    if all(f"{h}_contact_N" in part for h in hands):
+        out["peak_contact_N"] = peak("_contact_N")
+    worst = part[[h + displacement for h in focus]].max(axis=1, skipna=False).to_numpy()
+    out["recovery_s"] = recovery_time(part["t"].to_numpy(), worst, start)
+    return out
+
+
+def push_outcome(steps: pd.DataFrame, pushes, hands: list[str], pushed_hands: dict[str, str | None],
+                 after: float = AFTER_PUSH_S) -> dict:
+    """Per push, over its window [start, end + after): peak hand displacement (from the push-free run when
+    `{hand}_push_displacement_m` is logged, else `{hand}_error_m`), peak sensed pad normal force (and
+    PyBullet pad-box contact force when logged), recovery time of the pushed hand (the worse hand when the push is
+    not on a hand); `baseline`: the same over the equally long window just before the push. Top-level numbers are
+    the pushed (worse) hand's displacement and the larger pad force."""
+    out = {}
+    for push in pushes:
+        hand = pushed_hands.get(push.name)
+        focus = [hand] if hand else list(hands)
+        (b0, b1), (p0, p1) = push_windows(push, after)
+        during = _window(steps, hands, focus, p0, p1)
+        baseline = _window(steps, hands, focus, b0, b1)
+        applied = steps.get(f"push_{push.name}_N")
+        dt = float(steps["t"].diff().median()) if len(steps) > 1 else 0.0
+        peak = during.get("peak_displacement_m")
+        out[push.name] = {
+            "body": push.body, "link": push.link, "force_N": list(push.force), "start_s": push.start,
+            "duration_s": push.duration, "pushed_hand": hand,
+            "applied_impulse_N_s": None if applied is None else float(applied.sum() * dt),
+            "peak_displacement_m": max(peak[h] for h in focus) if peak else None,
+            "peak_pad_force_N": max(during["peak_pad_force_N"].values()) if peak else None,
+            "peak_contact_N": max(during["peak_contact_N"].values()) if "peak_contact_N" in during else None,
+            "recovery_s": during.get("recovery_s"), "push": during, "baseline": baseline}
+    return out

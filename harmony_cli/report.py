@@ -49,8 +49,41 @@ def _ours(s: dict) -> dict[str, str]:
                  "p95 solve time": f"{t['p95']:.1f} ms", "Max solve time": f"{t['max']:.1f} ms",
                  "Max tracking error": f"{100 * e['max_m']:.2f} cm", "RMS tracking error": f"{100 * e['rms_m']:.2f} cm",
                  "Failed solves": f"{s['failed_solves']} / {s['steps']}"}
+    rows |= _disturbance(s.get("task", s))
     status = s.get("status", "missing")
     rows["Status"] = status if status == "completed" else f"{status}: {s.get('error', '')}"
+    return rows
+
+
+def _fmt(v, unit: str, scale: float = 1.0, missing: str = "-", digits: int = 2) -> str:
+    return missing if v is None else f"{scale * v:.{digits}f} {unit}"
+
+
+def _disturbance(task: dict) -> dict[str, str]:
+    """Task success and clearance, squeeze-force tracking and push responses, when the run measured them."""
+    rows = {}
+    if "success" in task:
+        rows["Task success"] = "yes" if task["success"] else "no"
+    clearance = [v for c in task.get("min_clearance_m", {}).values() for v in c.values()]
+    if clearance:
+        rows["Min clearance to obstacles"] = f"{min(clearance):.3f} m"
+    if (force := task.get("force")) and force["rms_N"] is not None:  # a reference > 0 at some step
+        rows["Squeeze-force error RMS / max (ref > 0)"] = f"{force['rms_N']:.2f} / {force['max_N']:.2f} N"
+        for phase, hands in force["phases"].items():
+            rms, top = max(v["rms_N"] for v in hands.values()), max(v["max_N"] for v in hands.values())
+            rows[f"Squeeze-force error RMS / max ({phase})"] = f"{rms:.2f} / {top:.2f} N"
+    for name, p in task.get("pushes", {}).items():
+        base = p["baseline"]
+        peak = lambda key: max(base.get(key, {}).values(), default=None)
+        rows |= {f"Push {name}: peak displacement (baseline)":
+                 f"{_fmt(p['peak_displacement_m'], 'cm', 100, digits=3)} "
+                 f"({_fmt(peak('peak_displacement_m'), 'cm', 100, digits=3)})",
+                 f"Push {name}: peak pad force (baseline)":
+                 f"{_fmt(p['peak_pad_force_N'], 'N')} ({_fmt(peak('peak_pad_force_N'), 'N')})",
+                 f"Push {name}: recovery to 1 cm": _fmt(p["recovery_s"], "s", missing="never")}
+        if p.get("peak_contact_N") is not None:
+            rows[f"Push {name}: peak pad-box contact force (baseline)"] = \
+                f"{_fmt(p['peak_contact_N'], 'N')} ({_fmt(peak('peak_contact_N'), 'N')})"
     return rows
 
 
@@ -65,11 +98,18 @@ def _paper(s: dict) -> dict[str, str] | None:
             "Max tracking error": f"{values[1]} cm", "Status": "KNITRO, i9 3.6 GHz"}
 
 
+def labels(runs: list[dict]) -> list[str]:
+    """One column label per run: transcription, K and solver, plus the run directory (the grid point) when
+    several runs share them (e.g. a grid over admittance.enabled)."""
+    plain = [_column(r["summary"]) for r in runs]
+    return [f"{p} [{r['dir'].name}]" if plain.count(p) > 1 else p for p, r in zip(plain, runs)]
+
+
 def table(runs: list[dict], with_paper: bool = True) -> pd.DataFrame:
     columns = {}
-    for r in runs:
+    for r, label in zip(runs, labels(runs)):
         s = r["summary"]
-        columns[f"{_column(s)} ours"] = _ours(s)
+        columns[f"{label} ours"] = _ours(s)
         paper = _paper(s) if with_paper else None
         if paper:
             columns[f"{_column(s).split(' (')[0]} paper"] = paper
@@ -110,7 +150,7 @@ def compare_report(dirs: list[Path], out: Path, name: str = "table", main_solver
     paths = write_table(main, out, name, f"Whole-body MPC: traditional vs Bezier ({main_solver})")
     if len(set(solvers)) > 1:
         paths += write_table(runs, out, f"{name}_extended", "Whole-body MPC: every solver mode")
-    steps = {_column(r["summary"]): pd.read_csv(r["dir"] / "steps.csv") for r in main
+    steps = {label: pd.read_csv(r["dir"] / "steps.csv") for r, label in zip(main, labels(main))
              if r["summary"].get("status") == "completed"}
     if steps:
         hands = [c.removesuffix("_error_m") for c in next(iter(steps.values())).columns if c.endswith("_error_m")]

@@ -18,7 +18,9 @@ import yaml
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
 from harmony_cli.loop import run_loop, trajectory_references
-from harmony_cli.metrics import summarise, task_outcome
+from harmony_cli.metrics import (AFTER_PUSH_S, displacement_from_twin, force_outcome, push_outcome, summarise,
+                                 task_outcome)
+from harmony_cli.pushes import pushed_hand
 from harmony_cli.motion import obstacle_predictor
 from harmony_cli.reference import HandReference
 from harmony_cli.robot import load_robot
@@ -78,10 +80,27 @@ def default_run_dir(name: str, root: Path = Path("results/runs")) -> Path:
     return root / f"{name}-{datetime.now().strftime('%Y%m%d-%H%M%S-%f')}"
 
 
+def _push_free_twin(path: Path, overrides: list[str], scenario, out: Path, progress: bool,
+                    concurrency: int) -> tuple[pd.DataFrame | None, dict]:
+    """The same scenario without its pushes, up to the last push's window end, into `out`: the deterministic
+    counterfactual each hand's push displacement is measured from (a task's live reference re-plans from the
+    measured pose, so the tracking error hides a push)."""
+    dt = scenario.sim.control_dt
+    until = max(p.start + p.duration for p in scenario.pushes) + AFTER_PUSH_S
+    duration = float(min(scenario.sim.duration, dt * np.ceil(until / dt - 1e-9)))
+    try:
+        run_scenario(path, list(overrides) + ["pushes=[]", f"sim.duration={duration!r}"], out, progress,
+                     concurrency, push_free_twin=False)
+    except RunFailed as exc:
+        return None, {"dir": str(out), "status": "failed", "error": str(exc)}
+    return pd.read_csv(out / "steps.csv"), {"dir": str(out), "status": "completed", "duration_s": duration}
+
+
 def run_scenario(path: str | Path, overrides: list[str] = (), out: Path | None = None, progress: bool = True,
-                 concurrency: int = 1, video: Path | bool | None = None) -> Path:
+                 concurrency: int = 1, video: Path | bool | None = None, push_free_twin: bool = True) -> Path:
     """Run one scenario closed loop; always leaves steps.csv, summary.json (status) and run.log in `out`;
-    `video` (a .mp4 or .gif path, or True for out/video.mp4) records it, rendered headless."""
+    `video` (a .mp4 or .gif path, or True for out/video.mp4) records it, rendered headless. A scenario with pushes
+    first runs its push-free twin into out/push_free (`push_free_twin=False`: displacements from the reference)."""
     path = Path(path)
     scenario = load_scenario(path, overrides)
     out = Path(out) if out else default_run_dir(scenario.name)
@@ -96,11 +115,14 @@ def run_scenario(path: str | Path, overrides: list[str] = (), out: Path | None =
     rows: list[dict] = []
     summary: dict = {"name": scenario.name, "status": "running"}
     np.random.seed(scenario.seed)  # nothing in the loop is random today; the seed is recorded and fixed
-    recorder = None
+    recorder, twin = None, None
+    if scenario.pushes and push_free_twin:
+        twin, summary["push_free_twin"] = _push_free_twin(path, list(overrides), scenario, out / "push_free",
+                                                          progress, concurrency)
     try:
         robot = load_robot(scenario.robot, path.parent)
         mpc = WholeBodyMPC(robot, scenario, scenario.sim.control_dt)
-        sim = Simulation(robot, scenario.sim, scenario.world)
+        sim = Simulation(robot, scenario.sim, scenario.world, scenario.pushes)
         if scenario.task is not None:
             references = TaskReferences(robot, scenario, sim)
             watch = references.watch
@@ -150,11 +172,20 @@ def run_scenario(path: str | Path, overrides: list[str] = (), out: Path | None =
         if recorder:  # a run that fails part-way keeps its video up to there
             summary["video"] = str(recorder.close())
         steps = pd.DataFrame(rows)
+        if len(steps) and twin is not None:
+            steps = displacement_from_twin(steps, twin, list(scenario.robot.end_effectors))
         steps.to_csv(out / "steps.csv", index=False)
         if len(steps):
-            summary |= summarise(steps, list(robot.hand_names))
+            hands = list(robot.hand_names)
+            summary |= summarise(steps, hands)
             if scenario.task is not None:
-                summary["task"] = task_outcome(steps, scenario, list(robot.hand_names))
+                summary["task"] = task_outcome(steps, scenario, hands)
+            outcome = summary.get("task", summary)  # force and push metrics sit beside the task's
+            if (force := force_outcome(steps, hands)) is not None:
+                outcome["force"] = force
+            if scenario.pushes:
+                on_hand = {p.name: pushed_hand(p, robot.urdf, scenario.robot.end_effectors) for p in scenario.pushes}
+                outcome["pushes"] = push_outcome(steps, scenario.pushes, hands, on_hand)
         (out / "meta.json").write_text(json.dumps(meta, indent=2))
         (out / "summary.json").write_text(json.dumps(summary, indent=2))
         log.write(f"status: {summary['status']}\n")
@@ -165,4 +196,9 @@ def run_scenario(path: str | Path, overrides: list[str] = (), out: Path | None =
             if scenario.task is not None:
                 from harmony_cli.plots import plot_top_down
                 plot_top_down(out, steps, scenario, list(robot.hand_names))
+            if scenario.pushes or any(c.endswith("_force_ref_N") for c in steps.columns):
+                from harmony_cli.plots import plot_forces, plot_push
+                plot_forces(out, steps, list(robot.hand_names), scenario.pushes)
+                for push in scenario.pushes:
+                    plot_push(out, steps, list(robot.hand_names), push, outcome["pushes"][push.name]["pushed_hand"])
     return out

@@ -315,6 +315,20 @@ class SimSpec(Strict):
         return round(self.control_dt / self.physics_dt)
 
 
+class PushSpec(Strict):
+    """A scripted external force, applied every physics substep while start <= t < start + duration."""
+
+    name: str = Field(pattern=r"^[A-Za-z0-9_]+$", description="label; logged per step as push_<name>_N")
+    body: str = Field(description="robot, box or an obstacle name")
+    link: str | None = Field(None, description="robot only: the link pushed (default: the base, the link the "
+                                               "base yaw joint moves)")
+    point: Vector3 | None = Field(None, description="where, in the link's frame (URDF link frame; box and "
+                                                    "obstacles: their body frame) [m]; default: its centre of mass")
+    force: Vector3 = Field(description="[fx, fy, fz] in the world frame [N]")
+    start: float = Field(ge=0, description="[s]")
+    duration: PositiveFloat = Field(description="[s]")
+
+
 class Scenario(Strict):
     name: str
     description: str = ""
@@ -328,6 +342,7 @@ class Scenario(Strict):
     admittance: AdmittanceSpec = AdmittanceSpec()
     solver: SolverSpec = SolverSpec()
     sim: SimSpec = SimSpec()
+    pushes: list[PushSpec] = Field([], description="scripted external forces (see PushSpec)")
 
 
 def apply_overrides(raw: dict, overrides: list[str]) -> dict:
@@ -471,6 +486,27 @@ def _check_task(path: Path, scenario: Scenario) -> None:
             raise ScenarioError(f"{path}: {where}.grasp/release: the world has no box")
 
 
+def _check_pushes(path: Path, scenario: Scenario) -> None:
+    """Unique names; each push names a body of the world and, on the robot, one of its links."""
+    world = scenario.world
+    bodies = ["robot"] + (["box"] if world.box else []) + [o.name for o in world.obstacles]
+    _, links = _urdf_joints_and_links((path.parent / scenario.robot.urdf).resolve())
+    seen = set()
+    for i, push in enumerate(scenario.pushes):
+        where = f"{path}: pushes.{i}"
+        if push.name in seen:
+            raise ScenarioError(f"{where}.name: {push.name!r} is used by an earlier push; names must be unique")
+        seen.add(push.name)
+        if push.body not in bodies:
+            raise ScenarioError(f"{where}.body: {push.body!r} is not in the world; choose one of: {', '.join(bodies)}")
+        if push.link is not None and push.body != "robot":
+            raise ScenarioError(f"{where}.link: {push.link!r}: only a push on the robot names a link "
+                                f"(body {push.body!r} is one rigid body); remove link")
+        if push.link is not None and push.link not in links:
+            raise ScenarioError(f"{where}.link: {push.link!r} is not a link of {Path(scenario.robot.urdf).name}; "
+                                f"links: {', '.join(sorted(links))}")
+
+
 def _check_solver(path: Path, scenario: Scenario) -> None:
     from harmony_cli.solvers import available_nlp_plugins  # casadi import kept out of schema-only use
 
@@ -500,6 +536,7 @@ def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
         raise ScenarioError(_one_line(path, err)) from None
     _check_robot(path, scenario)
     _check_task(path, scenario)
+    _check_pushes(path, scenario)
     _check_solver(path, scenario)
     return scenario
 

@@ -11,6 +11,7 @@ import numpy as np
 import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
+from harmony_cli.pushes import Pushes
 from harmony_cli.robot import Robot
 from harmony_cli.world import World
 from harmony_cli.wrench import WristSensors
@@ -44,7 +45,7 @@ def _silenced_stdout():
 class Simulation:
     """Base through its virtual planar joints (velocity), every other joint by position + velocity targets."""
 
-    def __init__(self, robot: Robot, sim_spec, world=None):
+    def __init__(self, robot: Robot, sim_spec, world=None, pushes=()):
         self.robot, self.spec = robot, sim_spec
         with _silenced_stdout():
             self.client = BulletClient(connection_mode=pybullet.DIRECT)
@@ -75,6 +76,8 @@ class Simulation:
                 self.client.changeDynamics(self.body, link, contactStiffness=sim_spec.pad_stiffness,
                                            contactDamping=sim_spec.pad_damping)
         self.world = World(self.client, world) if world is not None else None
+        base_link = self.joints[robot.base_joints[2]]  # the link the base yaw joint moves
+        self.pushes = Pushes(self.client, pushes, self.body, base_link, self.world)
         self.physics_steps = 0
 
     def observe(self) -> Observation:
@@ -102,6 +105,7 @@ class Simulation:
 
     def step(self, substeps: int) -> None:
         for _ in range(substeps):
+            self.pushes.apply(self.physics_steps * self.spec.physics_dt)
             self.wrists.before_physics_step()
             self.client.stepSimulation()
             self.physics_steps += 1
@@ -111,6 +115,18 @@ class Simulation:
     @property
     def time(self) -> float:
         return self.physics_steps * self.spec.physics_dt
+
+    def pad_contact_forces(self) -> np.ndarray:
+        """Per hand, the summed contact normal force between the box and the links below its wrist sensor [N]
+        (PyBullet's contact solution of the last physics step; zeros without a box)."""
+        forces = np.zeros(len(self.hand_links))
+        if self.world is None or self.world.box is None:
+            return forces
+        for point in self.client.getContactPoints(bodyA=self.world.box, bodyB=self.body):
+            for h, tool in enumerate(self.wrists.tools):
+                if point[4] in tool:
+                    forces[h] += point[9]
+        return forces
 
     def close(self) -> None:
         self.client.disconnect()
