@@ -29,7 +29,8 @@ EXPERIMENTS := pick_and_carry static_obstacles narrow_passage dynamic_obstacle
 
 # Table 1 (IPOPT to convergence) + the extended table with real-time iteration, one run at a time; then the
 # two-stage experiments (each with a video) and their results table; dynamic_obstacle again with the obstacle
-# parked (static), the two side by side (dynamic_obstacle.md) and their paths overlaid.
+# parked (static), the two side by side (dynamic_obstacle.md) and their paths overlaid; the push-recovery
+# ablation (admittance on / off) and its push plots.
 reproduce-paper: $(STAMP)
 	$(HARMONY) compare $(TABLE1) --grid solver.name=ipopt,rti --grid mpc.transcription=traditional,bezier \
 		--grid mpc.knots=6,26 --jobs 1 --out results/paper --name table1 --main-solver ipopt
@@ -42,6 +43,12 @@ reproduce-paper: $(STAMP)
 		--out results/paper --name dynamic_obstacle
 	$(HARMONY) paths $(addprefix results/paper/runs/,dynamic_obstacle dynamic_obstacle_static) \
 		--out results/paper/dynamic_obstacle_paths.png
+	cp results/paper/runs/pick_and_carry/force_tracking.png results/paper/pick_and_carry_force.png
+	$(HARMONY) compare scenarios/paper/push_recovery.yaml --grid admittance.enabled=true,false --jobs 1 \
+		--out results/paper/push_recovery --name push_recovery
+	cp results/paper/push_recovery/push_recovery.md results/paper/push_recovery/push_recovery.csv results/paper/
+	for a in true false; do cp results/paper/push_recovery/runs/enabled-$$a/push_left_hand.png \
+		results/paper/push_recovery_admittance_$$a.png; done
 
 clean:
-	rm -rf results/runs results/compare results/bench results/paper/runs .pytest_cache .hypothesis
+	rm -rf results/runs results/compare results/bench results/paper/runs results/paper/push_recovery .pytest_cache .hypothesis

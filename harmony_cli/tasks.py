@@ -44,8 +44,12 @@ class Schedule:
         return before + (target[i] - before) * quintic((np.asarray(times) - start) / self.admittance.ramp)
 
     def squeeze(self, phase: PhaseSpec) -> float:
-        """Total position squeeze [m]: the phase's own, plus 2 F / K when no admittance loop controls the force."""
-        return phase.squeeze + (0.0 if self.admittance.enabled else 2 * phase.force / self.admittance.stiffness)
+        """Total position squeeze [m]: the phase's own, plus, when no admittance loop controls the force, 2 F / K
+        (or twice `admittance.off_squeeze` for phases with a force)."""
+        a = self.admittance
+        if a.enabled or not phase.force:
+            return phase.squeeze
+        return phase.squeeze + 2 * (a.off_squeeze if a.off_squeeze is not None else phase.force / a.stiffness)
 
     def at(self, t: float) -> ActivePhase:
         i = min(int(np.searchsorted(self.ends, t, side="right")), len(self.phases) - 1)

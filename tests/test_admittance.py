@@ -88,3 +88,6 @@ def test_force_reference_blends_in_with_a_quintic_ramp_and_without_admittance_be
     goal = off.goal(task.phases[1], hands, {})
     np.testing.assert_allclose(goal[:, 1], [0.2 - 20 / 1500, -0.2 + 20 / 1500])  # F / K inward per pad
     np.testing.assert_allclose(on.goal(task.phases[1], hands, {}), hands)
+    calibrated = Schedule(task, ("left", "right"), AdmittanceSpec(enabled=False, off_squeeze=0.0015))
+    np.testing.assert_allclose(calibrated.goal(task.phases[1], hands, {})[:, 1], [0.2 - 0.0015, -0.2 + 0.0015])
+    np.testing.assert_allclose(calibrated.goal(task.phases[0], hands, {}), hands)  # no force: no squeeze

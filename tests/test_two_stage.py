@@ -92,3 +92,19 @@ def test_paper_experiment_succeeds_closed_loop(name, tmp_path):
     assert all(v > 0 for c in task["min_clearance_m"].values() for v in c.values())
     if name == "narrow_passage":
         assert task["base_yaw_range_deg"] > 45 and task["planner_failures"] == 0 and summary["failed_solves"] == 0
+    if name == "pick_and_carry":  # the carry's 20 N squeeze through the admittance loop
+        assert all(hand["rms_N"] <= 3.0 for hand in task["force"]["phases"]["carry"].values())
+
+
+@pytest.mark.slow
+def test_push_recovery_yields_with_admittance_and_presses_harder_without(tmp_path):
+    result = runner.invoke(app, ["compare", str(PAPER / "push_recovery.yaml"), "--grid",
+                                 "admittance.enabled=true,false", "--out", str(tmp_path), "--jobs", "2"])
+    assert result.exit_code == 0, result.output
+    on, off = (json.loads((tmp_path / "runs" / f"enabled-{v}" / "summary.json").read_text())["task"]
+               for v in ("true", "false"))
+    assert on["success"] and not on["box_dropped"]
+    push_on, push_off = on["pushes"]["left_hand"], off["pushes"]["left_hand"]
+    assert push_on["recovery_s"] is not None
+    assert push_off["peak_contact_N"] > push_on["peak_contact_N"]
+    assert push_on["peak_displacement_m"] > push_off["peak_displacement_m"]  # it yields
