@@ -263,8 +263,8 @@ class AdmittanceSpec(Strict):
     damping: PositiveFloat | None = Field(None, description="D [N s/m]; null: critical, 2 sqrt(m K)")
     weight: float = Field(0.1, ge=0, description="admittance cost ||F_hat - F_ref||^2 [1/N^2], mean over knots")
     ramp: PositiveFloat = Field(1.0, description="quintic blend of the force reference at a phase start [s]")
-    off_squeeze: PositiveFloat | None = Field(
-        None, description="enabled: false only: the position squeeze per pad [m] that stands in for a phase's "
+    off_squeeze: float | None = Field(
+        None, ge=0, description="enabled: false only: the position squeeze per pad [m] that stands in for a phase's "
                           "force; null: F / K, the admittance's free-space offset")
     max_offset: PositiveFloat = Field(0.05, description="bound on the compliant offset [m]")
     max_offset_rate: PositiveFloat = Field(0.5, description="bound on its rate [m/s]")
