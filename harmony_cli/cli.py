@@ -108,7 +108,8 @@ def compare(scenario: Path, grid: List[str] = typer.Option(..., "--grid", help="
         _fail(str(exc))
     out = out or Path("results/compare") / base.name
     dirs = run_grid(scenario, grid, set, out, jobs)
-    for path in compare_report(dirs, out, name, main_solver):
+    keys = [g.split("=", 1)[0] for g in grid]
+    for path in compare_report(dirs, out, name, main_solver, keys):
         typer.echo(path)
 
 

@@ -39,6 +39,8 @@ def _ours(s: dict) -> dict[str, str]:
         n_dof = s["n_dof"]
         formula = (f"N x n_dof = {s['control_points']} x {n_dof}" if bezier
                    else f"2K x n_dof = 2 x {s['knots']} x {n_dof}")
+        extra = s["decision_variables"] - (s["control_points"] if bezier else 2 * s["knots"]) * n_dof
+        formula += f" + {extra} compliant offsets" if extra else ""
         rows |= {"Long horizon": f"{s['horizon_s']:g} s", "Time knots": f"K = {s['knots']}",
                  "Control point No.": f"N = {s['control_points']}" if bezier else "-",
                  "Decision variable": s["decision_label"],
@@ -125,8 +127,8 @@ def _latex(frame: pd.DataFrame) -> str:
     return "\n".join(lines + [r"\hline", r"\end{tabular}", ""])
 
 
-def write_table(runs: list[dict], out: Path, name: str, title: str) -> list[Path]:
-    frame = table(runs)
+def write_table(runs: list[dict], out: Path, name: str, title: str, with_paper: bool = True) -> list[Path]:
+    frame = table(runs, with_paper)
     concurrency = sorted({r["meta"].get("concurrency", 1) for r in runs})
     cpu = sorted({r["meta"].get("cpu", "?") for r in runs})
     note = (f"Measured by harmony on {', '.join(cpu)}, {'/'.join(map(str, concurrency))} run(s) at a time; "
@@ -140,16 +142,20 @@ def write_table(runs: list[dict], out: Path, name: str, title: str) -> list[Path
     return paths
 
 
-def compare_report(dirs: list[Path], out: Path, name: str = "table", main_solver: str | None = None) -> list[Path]:
-    """Table for the main solver (paper layout + paper values), an extended table with every run, Fig. 4."""
+def compare_report(dirs: list[Path], out: Path, name: str = "table", main_solver: str | None = None,
+                   grid_keys: list[str] | None = None) -> list[Path]:
+    """Table for the main solver (paper layout; the paper's values beside ours when the grid varies the
+    transcription or K, or is not given), an extended table with every run, Fig. 4."""
     out.mkdir(parents=True, exist_ok=True)
     runs = load_runs(dirs)
     solvers = [r["summary"].get("solver") for r in runs]
     main_solver = main_solver or (solvers[0] if solvers else None)
     main = [r for r in runs if r["summary"].get("solver") == main_solver]
-    paths = write_table(main, out, name, f"Whole-body MPC: traditional vs Bezier ({main_solver})")
+    paper = grid_keys is None or bool({"mpc.transcription", "mpc.knots"} & set(grid_keys))
+    title = "Whole-body MPC: traditional vs Bezier" if paper else f"Ablation over {', '.join(grid_keys)}"
+    paths = write_table(main, out, name, f"{title} ({main_solver})", paper)
     if len(set(solvers)) > 1:
-        paths += write_table(runs, out, f"{name}_extended", "Whole-body MPC: every solver mode")
+        paths += write_table(runs, out, f"{name}_extended", f"{title}: every solver mode", paper)
     steps = {label: pd.read_csv(r["dir"] / "steps.csv") for r, label in zip(main, labels(main))
              if r["summary"].get("status") == "completed"}
     if steps:

@@ -21,7 +21,7 @@ class Command:
     q: np.ndarray  # position targets at t + control_dt
     qd: np.ndarray  # velocity targets (base: mean velocity over the control period)
     held: bool  # True when the solve failed and the last good plan was used
-    offsets: np.ndarray = field(default_factory=lambda: np.zeros(0))  # planned compliant offsets at t + control_dt (admittance) [m]
+    offsets: np.ndarray = field(default_factory=lambda: np.zeros(0))  # compliant offsets at t + control_dt [m]
 
 
 @dataclass(frozen=True)

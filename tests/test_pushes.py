@@ -226,3 +226,6 @@ def test_compare_tabulates_push_metrics_per_grid_point(tmp_path):
         assert row in table.index, row
         assert table.loc[row].notna().all() and (table.loc[row] != "").all(), table.loc[row]
     assert all(cell.endswith("(0.000 cm)") for cell in table.loc["Push left: peak displacement (baseline)"])
+    # an ablation that keeps the transcription and K has no paper column and says what it varies
+    assert not [c for c in table.columns if c.endswith("paper")]
+    assert (out / "table.md").read_text().startswith("# Ablation over planner.period (")
