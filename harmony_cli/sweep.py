@@ -24,7 +24,7 @@ def expand_grid(axes: list[str]) -> list[list[str]]:
 
 
 def point_label(point: list[str]) -> str:
-    return "_".join(item.split(".")[-1].replace("=", "-") for item in point) or "base"
+    return "_".join(f"{key.split('.')[-1]}-{value}" for key, _, value in (i.partition("=") for i in point)) or "base"
 
 
 def _run_quiet(path: str, overrides: list[str], out: Path, jobs: int) -> Path:
