@@ -68,6 +68,7 @@ def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duratio
             if force_ref is not None:
                 row[f"{hand}_force_ref_N"] = float(force_ref[h, 0])
                 row[f"{hand}_offset_m"] = float(command.offsets[h])  # compliant offset commanded along the normal
+                row[f"{hand}_force_seen_N"] = float(mpc.force_seen[h])  # the low-passed force the admittance used
             row |= {f"{hand}_force_{a}_N": v for a, v in zip("xyz", obs.wrenches[h, :3])}  # grasp frame
             if contact is not None:
                 row[f"{hand}_contact_N"] = float(contact[h])  # PyBullet's pad-box contact normal force

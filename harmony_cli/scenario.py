@@ -266,6 +266,10 @@ class AdmittanceSpec(Strict):
     off_squeeze: float | None = Field(
         None, ge=0, description="enabled: false only: the position squeeze per pad [m] that stands in for a phase's "
                           "force; null: F / K, the admittance's free-space offset")
+    force_filter: float = Field(
+        0.05, ge=0, description="time constant [s] of the first-order low-pass on the sensed force the admittance "
+                                "sees; 0: raw. Without it the loop chatters at half the control rate against stiff "
+                                "contact (the offset is a static map of the force, loop gain k_contact / K > 1)")
     max_offset: PositiveFloat = Field(0.05, description="bound on the compliant offset [m]")
     max_offset_rate: PositiveFloat = Field(0.5, description="bound on its rate [m/s]")
 

@@ -14,6 +14,7 @@ from harmony_cli.robot import Robot
 from harmony_cli.solvers import Problem, SolveResult, linear_rows, make_solver
 from harmony_cli.transcription import make_transcription
 from harmony_cli.world import obstacle_shape, table_legs
+from harmony_cli.wrench import LowPass
 
 
 @dataclass(frozen=True)
@@ -198,6 +199,8 @@ class WholeBodyMPC:
         self.build_time = time.perf_counter() - start
         self.x = None  # last good solution
         self.pinned = list(robot.pinned_joints)
+        self.force_filter = LowPass(self.admittance.force_filter, control_dt) if self.admittance else None
+        self.force_seen = np.zeros(self.n_hands)  # the filtered pad forces the last step's admittance used [N]
 
     @property
     def knot_times(self) -> np.ndarray:
@@ -221,8 +224,10 @@ class WholeBodyMPC:
         rows = [hand_ref, self.obstacle_poses]
         if self.admittance is not None:
             K = self.transcription.n_knots
+            if force_meas is not None:
+                self.force_seen = self.force_filter(force_meas)
             rows += [np.zeros((self.n_hands, K)) if force_ref is None else force_ref,
-                     np.tile(np.zeros(self.n_hands) if force_meas is None else force_meas, (K, 1)).T]
+                     np.tile(self.force_seen, (K, 1)).T]
         self.params = np.vstack(rows).ravel(order="F")
         t, dt, robot = self.transcription, self.control_dt, self.robot
         q_init = np.r_[q_now, np.zeros(t.n_dof - q_now.size)]  # the compliant offsets start at 0

@@ -17,6 +17,18 @@ def normal_forces(wrenches: np.ndarray) -> np.ndarray:
     return -wrenches[:, 2]
 
 
+class LowPass:
+    """First-order low-pass y += a (u - y), a = dt / (tau + dt), starting at the first sample; tau = 0 passes u."""
+
+    def __init__(self, tau: float, dt: float):
+        self.alpha, self.value = dt / (tau + dt), None
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        u = np.asarray(u, dtype=float)
+        self.value = u.copy() if self.value is None else self.value + self.alpha * (u - self.value)
+        return self.value.copy()
+
+
 class WristSensors:
     """Enables a joint force/torque sensor per hand; `read()` gives the compensated external wrenches
     (`inertia=False`: gravity compensation only, which leaves the tool's m a in the reading)."""

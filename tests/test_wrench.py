@@ -201,3 +201,16 @@ def test_sensor_joints_default_to_the_joint_above_the_link_holding_the_grasp_fra
     eva = load_scenario(TABLE1).robot
     assert wrist_sensor_joints(eva, (TABLE1.parent / eva.urdf).resolve()) == {"left": "LARM_TOOL_JOINT",
                                                                               "right": "RARM_TOOL_JOINT"}
+
+
+def test_the_force_low_pass_is_first_order_with_the_given_time_constant():
+    from harmony_cli.wrench import LowPass
+    dt, tau = 0.02, 0.05
+    low = LowPass(tau, dt)
+    assert np.allclose(low([0.0, 10.0]), [0.0, 10.0])  # starts at the first sample
+    out = [low([20.0, 10.0]) for _ in range(10)]
+    alpha = dt / (tau + dt)
+    assert np.allclose(out[-1][0], 20.0 * (1 - (1 - alpha) ** 10)) and np.allclose(out[-1][1], 10.0)
+    raw = LowPass(0.0, dt)
+    raw([1.0])
+    assert np.allclose(raw([7.0]), [7.0])  # tau = 0 passes the input
