@@ -85,7 +85,8 @@ def disturbance_lines(outcome: dict) -> list[str]:
                      f"{_value(p['peak_displacement_m'], 'cm', 100)} (baseline "
                      f"{_value(peak('peak_displacement_m'), 'cm', 100)}), peak pad force "
                      f"{_value(p['peak_pad_force_N'], 'N')} (baseline {_value(peak('peak_pad_force_N'), 'N')}), "
-                     f"back within 1 cm for 0.5 s after {recovery}")
+                     f"back within 1 cm for 0.5 s after {recovery}, peak pusher force "
+                     f"{_value(p.get('peak_push_N'), 'N')}")
     return lines
 
 

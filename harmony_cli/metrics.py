@@ -188,6 +188,8 @@ def push_outcome(steps: pd.DataFrame, pushes, hands: list[str], pushed_hands: di
             "body": push.body, "link": push.link, "force_N": list(push.force), "start_s": push.start,
             "duration_s": push.duration, "pushed_hand": hand,
             "applied_impulse_N_s": None if applied is None else float(applied.sum() * dt),
+            "peak_push_N": None if applied is None else float(applied[(steps["t"] >= p0 - 1e-9)
+                                                                      & (steps["t"] < p1 - 1e-9)].max()),
             "peak_displacement_m": max(peak[h] for h in focus) if peak else None,
             "peak_pad_force_N": max(during["peak_pad_force_N"].values()) if peak else None,
             "peak_contact_N": max(during["peak_contact_N"].values()) if "peak_contact_N" in during else None,

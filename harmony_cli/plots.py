@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import matplotlib
@@ -259,11 +260,14 @@ def plot_push(out: Path, steps: pd.DataFrame, hands: list[str], push, pushed_han
         if f"{hand}_contact_N" in part:
             bottom.plot(part["t"], part[f"{hand}_contact_N"], ":", color=line.get_color(), lw=1,
                         label=f"{hand} pad-box contact")
+    if f"push_{push.name}_N" in part:
+        bottom.plot(part["t"], part[f"push_{push.name}_N"], color="k", lw=1.5, label=f"pusher ({push.name})")
     top.axhline(1.0, color="k", ls="--", lw=0.6, label="1 cm")
-    top.set(ylabel="hand displacement [cm]",
-            title=f"push {push.name}: {list(push.force)} N on {push.body}"
-                  f"{'/' + push.link if push.link else ''} for {push.duration:g} s")
-    bottom.set(xlabel="time [s]", ylabel="pad normal force [N]")
+    kind = f"{list(push.force)} N" if push.stiffness is None else \
+        f"spring {push.stiffness:g} N/m, max {math.hypot(*push.force):g} N"
+    top.set(ylabel="hand displacement [cm]", title=f"push {push.name}: {kind} on {push.body}"
+                                                   f"{'/' + push.link if push.link else ''} for {push.duration:g} s")
+    bottom.set(xlabel="time [s]", ylabel="force [N]")
     top.legend(fontsize=7)
     bottom.legend(fontsize=7)
     path = out / f"push_{push.name}.png"

@@ -1,5 +1,6 @@
 """Scripted pushes: external forces on the robot, the box or an obstacle, applied in PyBullet every physics
-substep while active (PyBullet clears external forces after each stepSimulation)."""
+substep while active (PyBullet clears external forces after each stepSimulation). A push is a set force, or a
+spring pusher (`stiffness`) whose force depends on how far the pushed point gives way."""
 
 from __future__ import annotations
 
@@ -38,8 +39,11 @@ def pushed_hand(push, urdf: Path, end_effectors: dict[str, str]) -> str | None:
 class Pushes:
     """The scenario's pushes resolved to PyBullet (body, link index) targets."""
 
-    def __init__(self, client, specs, robot_body: int, robot_base_link: int, world=None):
-        self.client, self.specs = client, list(specs)
+    def __init__(self, client, specs, robot_body: int, robot_base_link: int, world=None, physics_dt: float = 0.004):
+        self.client, self.specs, self.dt = client, list(specs), physics_dt
+        self.applied = [np.zeros(3) for _ in self.specs]  # the force of the last physics substep [N]
+        self.previous = [None] * len(self.specs)  # spring pushers: the point one substep before the push began
+        self.origin = [None] * len(self.specs)  # spring pushers: (point, velocity) when the push began
         links = {client.getJointInfo(robot_body, i)[12].decode(): i for i in range(client.getNumJoints(robot_body))}
         links[client.getBodyInfo(robot_body)[0].decode()] = -1
         self.targets = []
@@ -66,15 +70,37 @@ class Pushes:
         rotation = np.reshape(c.getMatrixFromQuaternion(orientation), (3, 3))
         return np.array(position) + rotation @ np.asarray(point)
 
+    def _spring_force(self, i: int, spec, t: float, point: np.ndarray) -> np.ndarray:
+        """Spring pusher: stiffness x (tip travel - the point's give along the push since it began, less the
+        motion it had then), never negative."""
+        if self.origin[i] is None:
+            before = point if self.previous[i] is None else self.previous[i]
+            self.origin[i] = (point, (point - before) / self.dt)
+        p0, v0 = self.origin[i]
+        magnitude = float(np.linalg.norm(spec.force))
+        direction = np.asarray(spec.force) / magnitude
+        travel = magnitude / spec.stiffness * min(1.0, (t - spec.start) / (spec.duration / 4))
+        give = float(direction @ (point - p0 - v0 * (t - spec.start)))
+        return direction * spec.stiffness * max(0.0, travel - give)
+
     def apply(self, t: float) -> None:
         """Call before each stepSimulation with the substep's start time."""
-        for spec, (body, link) in zip(self.specs, self.targets):
-            if active(spec, t):
-                self.client.applyExternalForce(body, link, list(spec.force),
-                                               self._world_point(body, link, spec.point).tolist(),
-                                               pybullet.WORLD_FRAME)
+        for i, (spec, (body, link)) in enumerate(zip(self.specs, self.targets)):
+            self.applied[i] = np.zeros(3)
+            if spec.stiffness is None and not active(spec, t):
+                continue
+            point = self._world_point(body, link, spec.point)
+            if spec.stiffness is not None and not active(spec, t):
+                self.previous[i] = point
+                continue
+            force = np.asarray(spec.force, float) if spec.stiffness is None else self._spring_force(i, spec, t, point)
+            self.client.applyExternalForce(body, link, force.tolist(), point.tolist(), pybullet.WORLD_FRAME)
+            self.applied[i] = force
 
     def magnitudes(self, t: float) -> dict[str, float]:
-        """Per push, `push_<name>_N`: the force's magnitude if it acts at t, else 0."""
-        return {f"push_{s.name}_N": float(np.linalg.norm(s.force)) if active(s, t) else 0.0 for s in self.specs}
+        """Per push, `push_<name>_N`: a set force's magnitude if it acts at t, else 0; a spring pusher's force in
+        the last physics substep (it depends on the motion still to come)."""
+        set_force = lambda s: float(np.linalg.norm(s.force)) if active(s, t) else 0.0
+        return {f"push_{s.name}_N": set_force(s) if s.stiffness is None else float(np.linalg.norm(f))
+                for s, f in zip(self.specs, self.applied)}
 

@@ -82,7 +82,9 @@ def _disturbance(task: dict) -> dict[str, str]:
                  f"({_fmt(peak('peak_displacement_m'), 'cm', 100, digits=3)})",
                  f"Push {name}: peak pad force (baseline)":
                  f"{_fmt(p['peak_pad_force_N'], 'N')} ({_fmt(peak('peak_pad_force_N'), 'N')})",
-                 f"Push {name}: recovery to 1 cm": _fmt(p["recovery_s"], "s", missing="never")}
+                 f"Push {name}: recovery to 1 cm": _fmt(p["recovery_s"], "s", missing="never"),
+                 f"Push {name}: peak pusher force": _fmt(p.get("peak_push_N"), "N"),
+                 f"Push {name}: pusher impulse": _fmt(p.get("applied_impulse_N_s"), "N s")}
         if p.get("peak_contact_N") is not None:
             rows[f"Push {name}: peak pad-box contact force (baseline)"] = \
                 f"{_fmt(p['peak_contact_N'], 'N')} ({_fmt(peak('peak_contact_N'), 'N')})"

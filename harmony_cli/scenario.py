@@ -334,6 +334,11 @@ class PushSpec(Strict):
     force: Vector3 = Field(description="[fx, fy, fz] in the world frame [N]")
     start: float = Field(ge=0, description="[s]")
     duration: PositiveFloat = Field(description="[s]")
+    stiffness: PositiveFloat | None = Field(
+        None, description="[N/m] a spring pusher instead of a set force: its tip travels |force| / stiffness along "
+                          "the force over the push's first quarter and holds there; it presses with stiffness x (tip "
+                          "travel - how far the point has given way along the force since the push began, beyond "
+                          "the motion it had then), never pulls: |force| against a body that does not give")
 
 
 class Scenario(Strict):

@@ -77,7 +77,7 @@ class Simulation:
                                            contactDamping=sim_spec.pad_damping)
         self.world = World(self.client, world) if world is not None else None
         base_link = self.joints[robot.base_joints[2]]  # the link the base yaw joint moves
-        self.pushes = Pushes(self.client, pushes, self.body, base_link, self.world)
+        self.pushes = Pushes(self.client, pushes, self.body, base_link, self.world, sim_spec.physics_dt)
         self.physics_steps = 0
 
     def observe(self) -> Observation:

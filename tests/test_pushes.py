@@ -229,3 +229,33 @@ def test_compare_tabulates_push_metrics_per_grid_point(tmp_path):
     # an ablation that keeps the transcription and K has no paper column and says what it varies
     assert not [c for c in table.columns if c.endswith("paper")]
     assert (out / "table.md").read_text().startswith("# Ablation over planner.period (")
+
+
+def test_a_spring_pusher_presses_with_its_set_force_on_what_does_not_give_and_less_on_what_does(eva):
+    """A free box (0.8 kg, undamped) against m x'' = k (s(t) - x) integrated independently, and a static post
+    (it cannot give) against the full |force| once the tip has travelled |force| / k."""
+    k, force, start, duration = 200.0, 4.0, 0.1, 0.4
+    pushes = [PushSpec(name="spring", body="box", force=(force, 0.0, 0.0), start=start, duration=duration,
+                       stiffness=k),
+              PushSpec(name="wall", body="post", force=(0.0, -force, 0.0), start=start, duration=duration, stiffness=k)]
+    world = WorldSpec(box=BoxSpec(position=(3.0, 0.0, 2.0), mass=MASS),
+                      obstacles=[{"name": "post", "shape": "box", "position": [5, 0, 1], "size": [0.1, 0.1, 2]}])
+    sim = Simulation(eva, SimSpec(), world, pushes)
+    try:
+        sim.client.changeDynamics(sim.world.box, -1, linearDamping=0.0, angularDamping=0.0)
+        x0 = sim.client.getBasePositionAndOrientation(sim.world.box)[0][0]
+        logged = []
+        for step in range(int(round((start + duration) / sim.spec.control_dt))):
+            sim.step(sim.spec.substeps)
+            logged.append(sim.pushes.magnitudes(step * sim.spec.control_dt))
+        x_sim = sim.client.getBasePositionAndOrientation(sim.world.box)[0][0] - x0
+    finally:
+        sim.close()
+    travel = lambda t: force / k * np.clip((t - start) / (duration / 4), 0.0, 1.0)
+    x, v, h = 0.0, 0.0, 1e-5
+    for t in np.arange(start, start + duration, h):
+        v += h * k * max(0.0, travel(t) - x) / MASS
+        x += h * v
+    assert x_sim == pytest.approx(x, rel=0.03)
+    assert max(row["push_spring_N"] for row in logged) < 0.9 * force  # the box gives way
+    assert logged[-1]["push_wall_N"] == pytest.approx(force)  # the post does not

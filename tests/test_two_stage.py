@@ -99,14 +99,16 @@ def test_paper_experiment_succeeds_closed_loop(name, tmp_path):
 
 
 @pytest.mark.slow
-def test_push_recovery_yields_with_admittance_and_presses_harder_without(tmp_path):
+def test_push_recovery_yields_with_admittance_and_the_pusher_presses_harder_without(tmp_path):
     result = runner.invoke(app, ["compare", str(PAPER / "push_recovery.yaml"), "--grid",
                                  "admittance.enabled=true,false", "--out", str(tmp_path), "--jobs", "2"])
     assert result.exit_code == 0, result.output
     on, off = (json.loads((tmp_path / "runs" / f"enabled-{v}" / "summary.json").read_text())["task"]
                for v in ("true", "false"))
-    assert on["success"] and not on["box_dropped"]
+    assert on["success"] and not on["box_dropped"] and off["success"]
     push_on, push_off = on["pushes"]["left_hand"], off["pushes"]["left_hand"]
-    assert push_on["recovery_s"] is not None
-    assert push_off["peak_contact_N"] > push_on["peak_contact_N"]
-    assert push_on["peak_displacement_m"] > push_off["peak_displacement_m"]  # it yields
+    assert push_on["recovery_s"] is not None and push_off["recovery_s"] is not None
+    # the spring pusher builds up less force against the compliant hand, which yields past 1 cm and comes back
+    assert push_off["peak_push_N"] > push_on["peak_push_N"]
+    assert push_off["applied_impulse_N_s"] > 1.3 * push_on["applied_impulse_N_s"]  # measured 1.45
+    assert push_on["peak_displacement_m"] > 0.01 > push_off["peak_displacement_m"] and push_on["recovery_s"] > 0
