@@ -66,27 +66,25 @@ def run(scenario: Path, set: List[str] = typer.Option([], "--set", help=SET_HELP
         typer.echo(f"video: {summary['video']}")
 
 
-def _value(v, unit: str, scale: float = 1.0) -> str:
-    return "-" if v is None else f"{scale * v:.2f} {unit}"
-
-
 def disturbance_lines(outcome: dict) -> list[str]:
     """Squeeze-force tracking and each push's response, one line each (nothing when neither was measured)."""
+    from harmony_cli.metrics import baseline_peak
+    from harmony_cli.report import fmt
+
     lines = []
     if force := outcome.get("force"):
-        lines.append(f"squeeze force error (worse hand, reference > 0): RMS {_value(force['rms_N'], 'N')}, max "
-                     f"{_value(force['max_N'], 'N')}; phases: {', '.join(force['phases_with_reference'])}")
+        lines.append(f"squeeze force error (worse hand, reference > 0): RMS {fmt(force['rms_N'], 'N')}, max "
+                     f"{fmt(force['max_N'], 'N')}; phases: {', '.join(force['phases_with_reference'])}")
     for name, p in outcome.get("pushes", {}).items():
-        base = p["baseline"]
-        peak = lambda key: max(base.get(key, {}).values(), default=None)
+        peak = lambda key: baseline_peak(p, key)
         recovery = "never" if p["recovery_s"] is None else f"{p['recovery_s']:.2f} s"
         lines.append(f"push {name} on {p['pushed_hand'] or p['body']} (displacement from the "
                      f"{p['push'].get('displacement_from')}): peak displacement "
-                     f"{_value(p['peak_displacement_m'], 'cm', 100)} (baseline "
-                     f"{_value(peak('peak_displacement_m'), 'cm', 100)}), peak pad force "
-                     f"{_value(p['peak_pad_force_N'], 'N')} (baseline {_value(peak('peak_pad_force_N'), 'N')}), "
+                     f"{fmt(p['peak_displacement_m'], 'cm', 100)} (baseline "
+                     f"{fmt(peak('peak_displacement_m'), 'cm', 100)}), peak pad force "
+                     f"{fmt(p['peak_pad_force_N'], 'N')} (baseline {fmt(peak('peak_pad_force_N'), 'N')}), "
                      f"back within 1 cm for 0.5 s after {recovery}, peak pusher force "
-                     f"{_value(p.get('peak_push_N'), 'N')}")
+                     f"{fmt(p.get('peak_push_N'), 'N')}")
     return lines
 
 

@@ -179,6 +179,7 @@ class KnotConstraints:
         q, ref = (cs.SX.sym(name, problem.constraint.size1_in(i)) for i, name in enumerate(("q", "ref")))
         h = problem.constraint(q, ref)
         self.m, self.n_dof, self.n_rows = h.numel(), nd, (K - 1) * h.numel()
+        self.function, self.n_ref = problem.constraint, problem.constraint.size1_in(1)
         J = cs.jacobian(h, q)
         self.map = Buffered(compiled(cs.Function("harmony_clearance", [q, ref], [h, cs.densify(J.T)]).map(K)))
         lam = cs.SX.sym("lam", self.m)
@@ -187,6 +188,13 @@ class KnotConstraints:
         structural = np.array(cs.DM(J.sparsity(), 1)) != 0  # m x nd: which joints each constraint depends on
         self.pattern = np.zeros((self.n_rows, n), dtype=bool)  # x = [vec(positions) (nd * npos); anything else]
         self.pattern[:, : nd * npos] = np.einsum("ka,ji->kjai", self.B[1:] != 0, structural).reshape(self.n_rows, -1)
+
+    def lower(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """Lower bounds of the rows: min(0, h(q_0)) per constraint, repeated for every knot >= 1."""
+        (K, npos), nd = self.B.shape, self.n_dof
+        q0 = x[: nd * npos].reshape((nd, npos), order="F") @ self.B[0]
+        h0 = np.array(self.function(q0, p[: self.n_ref])).ravel()
+        return np.tile(np.minimum(h0, 0.0), K - 1)
 
     def evaluate(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(h at knots >= 1, lower bounds, C: n_rows x n_vars dense)."""

@@ -47,9 +47,10 @@ def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duratio
         positions, rotations, extra = references(t, obs, mpc.knot_times)
         p = hand_reference_matrix(positions, rotations)
         force_ref = extra.pop("force_ref", None)  # hands x K squeeze forces, when the admittance is on
+        pad_forces = normal_forces(obs.wrenches)  # wrist sensors, pad pressed > 0
         if predict is not None:
             mpc.set_obstacle_centres(predict(t + mpc.knot_times))
-        command, result = mpc.step(obs.q, p, force_ref, normal_forces(obs.wrenches))
+        command, result = mpc.step(obs.q, p, force_ref, pad_forces)
         loop_ms = 1e3 * (time.perf_counter() - start)
         row = {"step": step, "t": t, "solve_ms": 1e3 * result.solve_time, "build_ms": 1e3 * result.build_time,
                "loop_ms": loop_ms, "status": result.status,
@@ -64,7 +65,7 @@ def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duratio
             row |= {f"{hand}_meas_{a}": v for a, v in zip("xyz", obs.hand_positions[h])}
             row[f"{hand}_error_m"] = float(np.linalg.norm(err))
             row[f"{hand}_rot_error_deg"] = rotation_error_deg(obs.hand_rotations[h], rotations[0, h])
-            row[f"{hand}_force_normal_N"] = float(normal_forces(obs.wrenches)[h])  # wrist sensor, pad pressed > 0
+            row[f"{hand}_force_normal_N"] = float(pad_forces[h])
             if force_ref is not None:
                 row[f"{hand}_force_ref_N"] = float(force_ref[h, 0])
                 row[f"{hand}_offset_m"] = float(command.offsets[h])  # compliant offset commanded along the normal

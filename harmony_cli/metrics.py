@@ -167,6 +167,11 @@ def _window(steps: pd.DataFrame, hands: list[str], focus: list[str], start: floa
     return out
 
 
+def baseline_peak(outcome: dict, key: str) -> float | None:
+    """The larger hand's value of `key` (e.g. peak_pad_force_N) in a push outcome's baseline window."""
+    return max(outcome["baseline"].get(key, {}).values(), default=None)
+
+
 def push_outcome(steps: pd.DataFrame, pushes, hands: list[str], pushed_hands: dict[str, str | None],
                  after: float = AFTER_PUSH_S) -> dict:
     """Per push, over its window [start, end + after): peak hand displacement (from the push-free run when

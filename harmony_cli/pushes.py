@@ -42,7 +42,7 @@ class Pushes:
     def __init__(self, client, specs, robot_body: int, robot_base_link: int, world=None, physics_dt: float = 0.004):
         self.client, self.specs, self.dt = client, list(specs), physics_dt
         self.applied = [np.zeros(3) for _ in self.specs]  # the force of the last physics substep [N]
-        self.previous = [None] * len(self.specs)  # spring pushers: the point one substep before the push began
+        self.previous = [None] * len(self.specs)  # spring pushers: the point in the substep before the push
         self.origin = [None] * len(self.specs)  # spring pushers: (point, velocity) when the push began
         links = {client.getJointInfo(robot_body, i)[12].decode(): i for i in range(client.getNumJoints(robot_body))}
         links[client.getBodyInfo(robot_body)[0].decode()] = -1
@@ -87,12 +87,11 @@ class Pushes:
         """Call before each stepSimulation with the substep's start time."""
         for i, (spec, (body, link)) in enumerate(zip(self.specs, self.targets)):
             self.applied[i] = np.zeros(3)
-            if spec.stiffness is None and not active(spec, t):
+            if not active(spec, t):
+                if spec.stiffness is not None and spec.start - self.dt - EPS <= t < spec.start:  # for its velocity
+                    self.previous[i] = self._world_point(body, link, spec.point)
                 continue
             point = self._world_point(body, link, spec.point)
-            if spec.stiffness is not None and not active(spec, t):
-                self.previous[i] = point
-                continue
             force = np.asarray(spec.force, float) if spec.stiffness is None else self._spring_force(i, spec, t, point)
             self.client.applyExternalForce(body, link, force.tolist(), point.tolist(), pybullet.WORLD_FRAME)
             self.applied[i] = force

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from harmony_cli.metrics import baseline_peak
 from harmony_cli.plots import plot_comparison
 
 # The paper's Table 1 (KNITRO, Intel i9 3.6 GHz): (transcription, K) -> (mean solve ms, max tracking error cm)
@@ -57,7 +58,7 @@ def _ours(s: dict) -> dict[str, str]:
     return rows
 
 
-def _fmt(v, unit: str, scale: float = 1.0, missing: str = "-", digits: int = 2) -> str:
+def fmt(v, unit: str, scale: float = 1.0, missing: str = "-", digits: int = 2) -> str:
     return missing if v is None else f"{scale * v:.{digits}f} {unit}"
 
 
@@ -75,19 +76,18 @@ def _disturbance(task: dict) -> dict[str, str]:
             rms, top = max(v["rms_N"] for v in hands.values()), max(v["max_N"] for v in hands.values())
             rows[f"Squeeze-force error RMS / max ({phase})"] = f"{rms:.2f} / {top:.2f} N"
     for name, p in task.get("pushes", {}).items():
-        base = p["baseline"]
-        peak = lambda key: max(base.get(key, {}).values(), default=None)
+        peak = lambda key: baseline_peak(p, key)
         rows |= {f"Push {name}: peak displacement (baseline)":
-                 f"{_fmt(p['peak_displacement_m'], 'cm', 100, digits=3)} "
-                 f"({_fmt(peak('peak_displacement_m'), 'cm', 100, digits=3)})",
+                 f"{fmt(p['peak_displacement_m'], 'cm', 100, digits=3)} "
+                 f"({fmt(peak('peak_displacement_m'), 'cm', 100, digits=3)})",
                  f"Push {name}: peak pad force (baseline)":
-                 f"{_fmt(p['peak_pad_force_N'], 'N')} ({_fmt(peak('peak_pad_force_N'), 'N')})",
-                 f"Push {name}: recovery to 1 cm": _fmt(p["recovery_s"], "s", missing="never"),
-                 f"Push {name}: peak pusher force": _fmt(p.get("peak_push_N"), "N"),
-                 f"Push {name}: pusher impulse": _fmt(p.get("applied_impulse_N_s"), "N s")}
+                 f"{fmt(p['peak_pad_force_N'], 'N')} ({fmt(peak('peak_pad_force_N'), 'N')})",
+                 f"Push {name}: recovery to 1 cm": fmt(p["recovery_s"], "s", missing="never"),
+                 f"Push {name}: peak pusher force": fmt(p.get("peak_push_N"), "N"),
+                 f"Push {name}: pusher impulse": fmt(p.get("applied_impulse_N_s"), "N s")}
         if p.get("peak_contact_N") is not None:
             rows[f"Push {name}: peak pad-box contact force (baseline)"] = \
-                f"{_fmt(p['peak_contact_N'], 'N')} ({_fmt(peak('peak_contact_N'), 'N')})"
+                f"{fmt(p['peak_contact_N'], 'N')} ({fmt(peak('peak_contact_N'), 'N')})"
     return rows
 
 

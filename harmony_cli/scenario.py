@@ -244,7 +244,8 @@ class PhaseSpec(Strict):
     hands: dict[str, HandTarget] = Field(description="hand label -> absolute [x, y, z], relative target or null")
     squeeze: float = Field(0.0, ge=0, description="goals moved towards each other by this much in total [m]")
     force: float = Field(0.0, ge=0, description="squeeze force reference per pad [N] (admittance; without it, "
-                                                "the equivalent position squeeze force / stiffness per pad)")
+                                                "a position squeeze per pad: admittance.off_squeeze, or force / "
+                                                "stiffness when that is null)")
     grasp: bool = Field(False, description="the box is held from the end of this phase")
     release: bool = Field(False, description="the box is let go during this phase")
 

@@ -258,7 +258,7 @@ class NlpSolver:
         lbg, ubg = r.rows(self.problem.lb, self.problem.ub, x)
         rows = np.r_[r.a, self.problem.A.shape[0] + np.arange(self.n_rows)]
         if self.constraints is not None:
-            lower = self.constraints.evaluate(np.where(free, x0, lbx), p)[1]
+            lower = self.constraints.lower(np.where(free, x0, lbx), p)
             lbg, ubg = np.r_[lbg, lower], np.r_[ubg, np.full(self.n_rows, np.inf)]
         out = solver(x0=x0[free], lbx=lbx[free], ubx=ubx[free], lbg=lbg, ubg=ubg, p=np.r_[p, lbx[~free]],
                      lam_x0=self.lam_x[free], lam_g0=self.lam_g[rows])
@@ -296,7 +296,7 @@ class SymbolicNlpSolver:
         start = time.perf_counter()
         lbg, ubg = self.problem.lb, self.problem.ub
         if self.constraints is not None:
-            lower = self.constraints.evaluate(np.where(lbx < ubx, x0, lbx), p)[1]
+            lower = self.constraints.lower(np.where(lbx < ubx, x0, lbx), p)
             lbg, ubg = np.r_[lbg, lower], np.r_[ubg, np.full(lower.size, np.inf)]
         out = self.solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, p=p, lam_x0=self.lam_x, lam_g0=self.lam_g)
         elapsed = time.perf_counter() - start

@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 from harmony_cli.cli import app
 from harmony_cli.scenario import ScenarioError, apply_overrides, load_scenario
 
-from conftest import ROOT, TABLE1
+from conftest import ROOT, TABLE1, assert_rejected
 
 SHIPPED = sorted(p for p in (ROOT / "scenarios").rglob("*.yaml"))
 runner = CliRunner()
@@ -63,12 +63,7 @@ BASE = "name: x\nrobot: {urdf: URDF}\nreference: {type: hold}\n"
 ])
 def test_bad_file_gets_one_line_naming_file_field_value_and_choices(tmp_path, text, expected):
     path = _write(tmp_path, text)
-    with pytest.raises(ScenarioError) as info:
-        load_scenario(path)
-    message = str(info.value)
-    assert "\n" not in message and message.startswith(str(path))
-    for piece in expected:
-        assert piece in message
+    assert_rejected(path, expected)
 
 
 def test_malformed_set_is_rejected():

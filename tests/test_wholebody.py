@@ -248,6 +248,8 @@ def test_a_state_inside_a_margin_may_stay_but_not_go_deeper(eva):
     q_now = eva.home.copy()
     q_now[1] = 1.9 - (0.707 / 2) - 0.01  # long side 1 cm from the wall, inside its 3 cm margin
     command, result = mpc.step(q_now, ref)
-    h, lower, _ = KnotConstraints(mpc.problem).evaluate(result.x, mpc.params)
+    constraints = KnotConstraints(mpc.problem)
+    h, lower, _ = constraints.evaluate(result.x, mpc.params)
     assert result.success and not command.held and lower.min() < -0.02
     assert (h >= lower - 1e-8).all()
+    np.testing.assert_allclose(constraints.lower(result.x, mpc.params), lower, atol=1e-12)  # the solvers' bounds
