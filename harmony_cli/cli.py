@@ -33,8 +33,10 @@ def run(scenario: Path, set: List[str] = typer.Option([], "--set", help=SET_HELP
                                   help="With pushes: first run the scenario without them (into <out>/push_free) and "
                                        "measure push displacements from it")):
     """Run one scenario closed loop in PyBullet and write a run directory."""
-    from harmony_cli.run import RunFailed, run_scenario
-    from harmony_cli.solvers import SolverUnavailable
+    from harmony_cli.experiment.pipeline import RunFailed
+    from harmony_cli.experiment.run import run_scenario
+    from harmony_cli.mpc.registry import SolverUnavailable
+    from harmony_cli.report.text import run_lines
 
     try:
         if video_path is not None and video_path.suffix.lower() not in (".mp4", ".gif"):
@@ -45,47 +47,9 @@ def run(scenario: Path, set: List[str] = typer.Option([], "--set", help=SET_HELP
         _fail(str(exc))
     except RunFailed as exc:
         err.print(f"[red]run failed:[/red] {exc}", highlight=False, soft_wrap=True)
-        raise typer.Exit(1)
-    summary = json.loads((run_dir / "summary.json").read_text())
-    t, e = summary["solve_time_ms"], summary["tracking_error"]
-    typer.echo(f"{run_dir}: {summary['status']}, {summary['decision_variables']} decision variables, "
-               f"solve median {t['median']:.2f} / p95 {t['p95']:.2f} / max {t['max']:.2f} ms, "
-               f"max tracking error {100 * e['max_m']:.2f} cm, failed solves {summary['failed_solves']}")
-    if "task" in summary:
-        task, loop = summary["task"], summary["task"]["loop_time_ms"]
-        clear = min((v for c in task["min_clearance_m"].values() for v in c.values()), default=float("inf"))
-        typer.echo(f"task: success {task.get('success')}, box goal error {task.get('box_goal_error_m')}, dropped "
-                   f"{task.get('box_dropped')}, min clearance {clear:.3f} m, loop median {loop['median']:.2f} / "
-                   f"p95 {loop['p95']:.2f} / max {loop['max']:.2f} ms, planner failures {task['planner_failures']}")
-        for name, c in task.get("min_clearance_moving_m", {}).items():
-            clearances = ", ".join(f"{who} {v:.3f} m" for who, v in c.items())
-            typer.echo(f"moving obstacle {name}: min clearance {clearances}")
-    for line in disturbance_lines(summary.get("task", summary)):
+        raise typer.Exit(1) from None
+    for line in run_lines(run_dir, json.loads((run_dir / "summary.json").read_text())):
         typer.echo(line)
-    if "video" in summary:
-        typer.echo(f"video: {summary['video']}")
-
-
-def disturbance_lines(outcome: dict) -> list[str]:
-    """Squeeze-force tracking and each push's response, one line each (nothing when neither was measured)."""
-    from harmony_cli.metrics import baseline_peak
-    from harmony_cli.report import fmt
-
-    lines = []
-    if force := outcome.get("force"):
-        lines.append(f"squeeze force error (worse hand, reference > 0): RMS {fmt(force['rms_N'], 'N')}, max "
-                     f"{fmt(force['max_N'], 'N')}; phases: {', '.join(force['phases_with_reference'])}")
-    for name, p in outcome.get("pushes", {}).items():
-        peak = lambda key: baseline_peak(p, key)
-        recovery = "never" if p["recovery_s"] is None else f"{p['recovery_s']:.2f} s"
-        lines.append(f"push {name} on {p['pushed_hand'] or p['body']} (displacement from the "
-                     f"{p['push'].get('displacement_from')}): peak displacement "
-                     f"{fmt(p['peak_displacement_m'], 'cm', 100)} (baseline "
-                     f"{fmt(peak('peak_displacement_m'), 'cm', 100)}), peak pad force "
-                     f"{fmt(p['peak_pad_force_N'], 'N')} (baseline {fmt(peak('peak_pad_force_N'), 'N')}), "
-                     f"back within 1 cm for 0.5 s after {recovery}, peak pusher force "
-                     f"{fmt(p.get('peak_push_N'), 'N')}")
-    return lines
 
 
 @app.command()
@@ -96,8 +60,8 @@ def compare(scenario: Path, grid: List[str] = typer.Option(..., "--grid", help="
             name: str = typer.Option("table", help="Table file name stem"),
             main_solver: Optional[str] = typer.Option(None, help="Solver of the main table (default: first)")):
     """Run an ablation grid and write Table-1 style tables (md, csv, tex) and Fig. 4 plots."""
-    from harmony_cli.report import compare_report
-    from harmony_cli.sweep import expand_grid, run_grid
+    from harmony_cli.experiment.sweep import expand_grid, run_grid
+    from harmony_cli.report.tables import compare_report
 
     try:
         base = load_scenario(scenario, set)
@@ -137,7 +101,7 @@ def schema():
 def experiments(runs: List[Path] = typer.Argument(..., help="Run directories of task scenarios"),
                 out: Path = typer.Option(Path("results/paper")), name: str = typer.Option("experiments")):
     """Results table (md, csv) of two-stage task runs, with their top-down plots and a video frame each."""
-    from harmony_cli.experiments import experiments_report
+    from harmony_cli.report.experiments import experiments_report
 
     missing = [str(r) for r in runs if not (r / "summary.json").exists()]
     if missing:
@@ -153,7 +117,7 @@ def paths(runs: List[Path] = typer.Argument(..., help="Run directories of one sc
     """Top-down paths of several runs of one scene overlaid: base, hands, box and each run's moving obstacles."""
     import pandas as pd
 
-    from harmony_cli.plots import plot_paths_compared
+    from harmony_cli.report.plots import plot_paths_compared
 
     missing = [str(r) for r in runs if not (r / "steps.csv").exists()]
     if missing:
@@ -176,8 +140,8 @@ def bench(scenario: Path = typer.Option(Path("scenarios/paper/table1_s_shape.yam
                                               help="Two-stage task scenario whose full loop is timed ('' to skip)")):
     """Whole-body MPC solve time: both transcriptions x K x solver modes, side by side, with ratios; then the
     full loop (planner + whole-body MPC) of a task scenario, closed loop in PyBullet."""
-    from harmony_cli.bench import run_bench, run_loop_bench
-    from harmony_cli.solvers import SolverUnavailable
+    from harmony_cli.experiment.bench import run_bench, run_loop_bench
+    from harmony_cli.mpc.registry import SolverUnavailable
 
     try:
         run_bench(scenario, list(knots), list(solver), steps, start, out)

@@ -3,7 +3,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harmony_cli.robot import load_robot
+from harmony_cli.robot.model import load_robot
 from harmony_cli.scenario import ScenarioError, load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]

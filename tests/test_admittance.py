@@ -4,12 +4,13 @@ the quintic force ramp, and the force loop closed in PyBullet."""
 import numpy as np
 import pytest
 
-from harmony_cli.knot_derivatives import KnotDerivatives
-from harmony_cli.loop import hand_reference_matrix
-from harmony_cli.native_oracle import native_oracle
+from harmony_cli.mpc.knot_derivatives import KnotDerivatives
+from harmony_cli.mpc.knot_params import hand_rows
+from harmony_cli.mpc.native_oracle import native_oracle
 from harmony_cli.scenario import AdmittanceSpec, TaskSpec, load_scenario
-from harmony_cli.tasks import Schedule, quintic
-from harmony_cli.wholebody import WholeBodyMPC
+from harmony_cli.maths.scalings import quintic
+from harmony_cli.tasks.schedule import Schedule
+from harmony_cli.mpc.wholebody import WholeBodyMPC
 
 from conftest import TABLE1
 
@@ -20,7 +21,7 @@ def _hold_still(eva, mpc, force_ref, force_meas):
     """Solve with the hands' references at their home poses and the given squeeze forces (hands x K, hands)."""
     K = mpc.transcription.n_knots
     poses = eva.hand_poses_numeric(eva.home)
-    ref = hand_reference_matrix(np.array([[p.ravel() for p, _ in poses]] * K), np.array([[r for _, r in poses]] * K))
+    ref = hand_rows(np.array([[p.ravel() for p, _ in poses]] * K), np.array([[r for _, r in poses]] * K))
     return mpc.step(eva.home.copy(), ref, force_ref, force_meas)
 
 

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from harmony_cli.bezier import (
+from harmony_cli.maths.bezier import (
     bernstein_basis,
     convex_hull_box,
     derivative_matrix,

@@ -8,9 +8,9 @@ import pybullet
 import pytest
 from pybullet_utils.bullet_client import BulletClient
 
-from harmony_cli.geometry import Shape, symbolic_distance
+from harmony_cli.maths.shapes import Shape, symbolic_distance
 from harmony_cli.scenario import TableSpec
-from harmony_cli.world import table_legs
+from harmony_cli.maths.shapes import table_legs
 
 SHAPES = {
     "box": Shape("box", np.array([0.3, -0.2, 0.8]), 0.6, np.array([0.4, 0.25, 0.3])),

@@ -9,14 +9,14 @@ import pybullet
 import pytest
 from typer.testing import CliRunner
 
-from harmony_cli import wholebody
+from harmony_cli.mpc import wholebody
 from harmony_cli.cli import app
-from harmony_cli.geometry import Shape
-from harmony_cli.motion import centre_at, obstacle_predictor
-from harmony_cli.planner import HandState, Obstacle, TaskPlanner
-from harmony_cli.run import run_scenario
+from harmony_cli.maths.shapes import Shape
+from harmony_cli.tasks.motion import centre_at, obstacle_predictor
+from harmony_cli.mpc.planner import HandState, Obstacle, TaskPlanner
+from harmony_cli.experiment.run import run_scenario
 from harmony_cli.scenario import ObstacleSpec, PlannerSpec, ScenarioError, WorldSpec, load_scenario
-from harmony_cli.sim import Simulation
+from harmony_cli.sim.simulation import Simulation
 
 from conftest import ROOT, TABLE1, assert_rejected
 
@@ -73,7 +73,7 @@ OBSTACLE = "world: {obstacles: [{name: o, shape: cylinder, size: [0.4, 0.4, 2], 
 ])
 def test_bad_motion_gets_one_line_naming_file_field_value_and_what_is_valid(tmp_path, fields, expected):
     path = tmp_path / "bad.yaml"
-    path.write_text(f"name: x\nrobot: {{urdf: {ROOT / 'scenarios/robots/eva.urdf'}}}\nreference: {{type: hold}}\n"
+    path.write_text("name: x\nrobot: {profile: eva}\nreference: {type: hold}\n"
                     + OBSTACLE % fields)
     assert_rejected(path, expected)
 
@@ -116,7 +116,7 @@ def moving_run(tmp_path_factory):
 
     def recording_step(self, q_now, hand_ref, *forces):
         out = original(self, q_now, hand_ref, *forces)
-        params.append((self.params.copy(), self.problem.ref_shape, self.knot_times.copy()))
+        params.append((self.params.copy(), self.problem.ref_shape, self.knot_times.copy(), self.layout))
         return out
 
     walker = ("world.obstacles=[{name: walker, shape: cylinder, position: [0.6, -1.2, 1.0], size: [0.4, 0.4, 2.0], "
@@ -132,11 +132,12 @@ def test_the_whole_body_mpc_gets_the_obstacle_at_t_plus_its_knot_times(moving_ru
     out, params, scenario = moving_run
     walker, dt = scenario.world.obstacles[0], scenario.sim.control_dt
     assert len(params) == 50
-    for step, (p, shape, knot_times) in enumerate(params):
-        rows = p.reshape(shape, order="F")[24:28]  # after 2 hands x 12 reference rows: centre, yaw
-        np.testing.assert_allclose(rows[:3].T, centre_at(walker, step * dt + knot_times), atol=1e-12)
-        np.testing.assert_allclose(rows[3], 0.0)
-    first, last = (p.reshape(s, order="F")[24:27] for p, s, _ in (params[0], params[-1]))
+    for step, (p, shape, knot_times, layout) in enumerate(params):
+        rows = p.reshape(shape, order="F")
+        centre = rows[layout.obstacle_centre(0)]
+        np.testing.assert_allclose(centre.T, centre_at(walker, step * dt + knot_times), atol=1e-12)
+        np.testing.assert_allclose(rows[layout.obstacle_yaw(0)], 0.0)
+    first, last = (p.reshape(s, order="F")[layout.obstacle_centre(0)] for p, s, _, layout in (params[0], params[-1]))
     assert not np.allclose(first, last)  # the prediction moved with time
 
 

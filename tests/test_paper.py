@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from harmony_cli.run import run_scenario
+from harmony_cli.experiment.run import run_scenario
 
 from conftest import TABLE1
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from harmony_cli.bezier import difference_matrix, evaluate
-from harmony_cli.geometry import Shape
-from harmony_cli.planner import HandState, Obstacle, TaskPlanner
+from harmony_cli.maths.bezier import difference_matrix, evaluate
+from harmony_cli.maths.shapes import Shape
+from harmony_cli.mpc.planner import HandState, Obstacle, TaskPlanner
 from harmony_cli.scenario import PlannerSpec
 
 SPEC = PlannerSpec()

@@ -11,17 +11,17 @@ import yaml
 from typer.testing import CliRunner
 
 from harmony_cli.cli import app
-from harmony_cli.metrics import displacement_from_twin, force_outcome, push_outcome, recovery_time
-from harmony_cli.pushes import pushed_hand
+from harmony_cli.report.metrics import displacement_from_twin, force_outcome, push_outcome, recovery_time
+from harmony_cli.robot.urdf import hand_below
 from harmony_cli.scenario import BoxSpec, PushSpec, SimSpec, WorldSpec, load_scenario
-from harmony_cli.sim import Simulation
+from harmony_cli.sim.simulation import Simulation
 
 from conftest import ROOT, assert_rejected
 
 runner = CliRunner()
 BOX_LIFT = ROOT / "scenarios/smoke/box_lift.yaml"
-EVA = ROOT / "scenarios/robots/eva.urdf"
-HEAD = f"name: x\nrobot: {{urdf: {EVA}}}\nreference: {{type: hold}}\n"
+EVA = ROOT / "harmony_cli/robot/profiles/eva.urdf"
+HEAD = "name: x\nrobot: {profile: eva}\nreference: {type: hold}\n"
 WITH_BOX = HEAD + "world: {box: {position: [3, 0, 1]}, obstacles: [{name: post, shape: box, position: [5, 0, 1], " \
                   "size: [0.1, 0.1, 2]}]}\n"
 
@@ -56,9 +56,9 @@ def test_a_valid_push_loads_with_its_defaults(tmp_path):
                                "duration: 0.5}]\n")
     push = load_scenario(path).pushes[0]
     assert push.point is None and push.force == (0, 40, 0)
-    assert pushed_hand(push, EVA, {"left": "LARM_grasp", "right": "RARM_grasp"}) == "left"
-    assert pushed_hand(push.model_copy(update={"link": "CHEST"}), EVA, {"left": "LARM_grasp", "right": "RARM_grasp"}) \
-        is None
+    hands = {"left": "LARM_grasp", "right": "RARM_grasp"}
+    assert hand_below(push.link, EVA, hands) == "left"
+    assert hand_below("CHEST", EVA, hands) is None
 
 
 MASS = 0.8
@@ -180,7 +180,7 @@ def test_push_outcome_compares_the_push_window_with_the_baseline_before_it():
 
 def _box_lift_with_a_push(tmp_path: Path, start: float, duration: float) -> Path:
     raw = yaml.safe_load(BOX_LIFT.read_text())
-    raw["robot"] = {"urdf": str(EVA)}
+    raw["robot"] = {"profile": "eva"}
     raw["pushes"] = [{"name": "left", "body": "robot", "link": "LARM_TOOL", "force": [0.0, 0.0, -30.0],
                       "start": start, "duration": duration}]
     path = tmp_path / "box_lift_push.yaml"

@@ -65,7 +65,7 @@ def test_compare_writes_table1_layout_with_decision_variables_from_the_built_pro
 
 
 def test_grid_points_expand_and_label_by_the_last_key_and_the_whole_value():
-    from harmony_cli.sweep import expand_grid, point_label
+    from harmony_cli.experiment.sweep import expand_grid, point_label
     points = expand_grid(["mpc.knots=6,26", "admittance.off_squeeze=0.0003"])
     assert points == [["mpc.knots=6", "admittance.off_squeeze=0.0003"], ["mpc.knots=26", "admittance.off_squeeze=0.0003"]]
     assert [point_label(p) for p in points] == ["knots-6_off_squeeze-0.0003", "knots-26_off_squeeze-0.0003"]

@@ -32,7 +32,7 @@ def test_overrides_set_nested_values_parsed_as_yaml():
 
 def _write(tmp_path: Path, text: str) -> Path:
     path = tmp_path / "bad.yaml"
-    path.write_text(text.replace("URDF", str(ROOT / "scenarios/robots/eva.urdf")))
+    path.write_text(text.replace("urdf: URDF", f"profile: eva, urdf: {ROOT / 'harmony_cli/robot/profiles/eva.urdf'}"))
     return path
 
 
@@ -50,7 +50,7 @@ BASE = "name: x\nrobot: {urdf: URDF}\nreference: {type: hold}\n"
     ("name: x\nrobot: {urdf: URDF}\n", ["reference", "missing"]),
     ("name: x\nrobot: {urdf: URDF, base_joints: [base_x, base_y, base_z]}\nreference: {type: hold}\n",
      ["robot.base_joints", "'base_z'", "base_x"]),
-    ("name: x\nrobot: {urdf: nowhere.urdf}\nreference: {type: hold}\n", ["robot.urdf", "nowhere.urdf"]),
+    ("name: x\nrobot: {profile: eva, urdf: nowhere.urdf}\nreference: {type: hold}\n", ["robot.urdf", "nowhere.urdf"]),
     ("name: [unclosed\n", ["not valid YAML"]),
     ("name: x\nrobot: {urdf: URDF}\ntask: {phases: [{name: a, duration: 1, hands: {left: {relative_to: shelf, "
      "offset: [0, 0, 0]}, right: null}}]}\n", ["task.phases.0.hands.left.relative_to", "'shelf'", "(none)"]),

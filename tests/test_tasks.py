@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from harmony_cli.scenario import TaskSpec
-from harmony_cli.tasks import Schedule
+from harmony_cli.tasks.schedule import Schedule
 
 HANDS = ("left", "right")
 STAY = {"left": None, "right": None}

@@ -11,11 +11,12 @@ import pybullet
 import pytest
 from pybullet_utils.bullet_client import BulletClient
 
-from harmony_cli.urdf_prep import actuated_joint_names, prepare_urdf
+from harmony_cli.robot.prepare import prepare_urdf
+from harmony_cli.robot.urdf import actuated_joint_names
 
 ROOT = Path(__file__).resolve().parents[1]
 TWIN_ARM = ROOT / "scenarios/robots/twin_arm.urdf"
-EVA = ROOT / "scenarios/robots/eva.urdf"
+EVA = ROOT / "harmony_cli/robot/profiles/eva.urdf"
 BASE = ("base_x", "base_y", "base_yaw")
 ARM_JOINTS = [f"{side}_{name}" for side in "lr"
               for name in ("shoulder_pitch", "shoulder_roll", "elbow", "wrist_pitch", "wrist_yaw")]

@@ -4,16 +4,18 @@ import casadi as cs
 import numpy as np
 import pytest
 
-from harmony_cli.loop import hand_reference_matrix
-from harmony_cli.reference import HandReference
+from harmony_cli.mpc.knot_params import hand_rows
+from harmony_cli.tasks.reference import HandReference
 from harmony_cli.scenario import load_scenario
-from harmony_cli import solvers
-from harmony_cli.knot_derivatives import KnotConstraints, KnotDerivatives
-from harmony_cli.native_oracle import native_oracle
-from harmony_cli.solvers import NlpSolver, SymbolicNlpSolver, make_solver
-from harmony_cli.transcription import TraditionalTranscription, make_transcription
-from harmony_cli.wholebody import WholeBodyMPC, build_problem
-from harmony_cli.world import obstacle_shape
+from harmony_cli.mpc.knot_derivatives import KnotConstraints, KnotDerivatives
+from harmony_cli.mpc.native_oracle import native_oracle
+from harmony_cli.mpc import nlp
+from harmony_cli.mpc.nlp import NlpSolver, SymbolicNlpSolver
+from harmony_cli.mpc.registry import make_solver
+from harmony_cli.mpc.transcription import TraditionalTranscription, make_transcription
+from harmony_cli.mpc.wholebody import WholeBodyMPC
+from harmony_cli.mpc.wholebody_problem import build_problem
+from harmony_cli.maths.shapes import obstacle_shape
 
 from conftest import TABLE1
 
@@ -34,7 +36,7 @@ def test_decision_variable_counts_match_the_paper(eva, transcription, knots, exp
 
 def _reference(eva, scenario, transcription, t=9.0):
     ref = HandReference(scenario.reference, eva.hand_poses_numeric(eva.home))
-    return hand_reference_matrix(*ref.poses(t + transcription.knot_times)).ravel(order="F")
+    return hand_rows(*ref.poses(t + transcription.knot_times)).ravel(order="F")
 
 
 @pytest.mark.parametrize("transcription", ["bezier", "traditional"])
@@ -59,7 +61,7 @@ def test_gauss_newton_hessian_equals_exact_hessian_where_residuals_vanish(eva, r
     poses = [eva.hand_poses_numeric(q_knots[:, k]) for k in range(tr.n_knots)]
     positions = np.array([[p.ravel() for p, _ in pose] for pose in poses])
     rotations = np.array([[r for _, r in pose] for pose in poses])
-    p = hand_reference_matrix(positions, rotations).ravel(order="F")  # the reference is the trajectory itself
+    p = hand_rows(positions, rotations).ravel(order="F")  # the reference is the trajectory itself
     H_gn, _ = KnotDerivatives(problem)(x, p)
     f = sum(problem.terms.values())
     H_exact = np.array(cs.Function("h", [problem.x, problem.p], [cs.hessian(f, problem.x)[0]])(x, p))
@@ -145,7 +147,7 @@ def test_ipopt_and_gauss_newton_sqp_reach_the_same_optimum(eva):
 def test_python_callback_oracles_reach_the_native_oracles_optimum(eva, monkeypatch):
     """Without a C compiler the same derivatives go through Python callbacks: same optimum, only slower."""
     _, _, native = _solve_once(eva, "mpc.knots=6", "solver.name=ipopt")
-    monkeypatch.setattr(solvers, "native_oracle", lambda *args: None)
+    monkeypatch.setattr(nlp, "native_oracle", lambda *args: None)
     mpc, _, fallback = _solve_once(eva, "mpc.knots=6", "solver.name=ipopt")
     assert mpc.solver.native is None and native.success and fallback.success
     np.testing.assert_allclose(fallback.x, native.x, atol=1e-8)
@@ -186,7 +188,7 @@ def _walled(eva, *overrides):
     poses = eva.hand_poses_numeric(eva.home)
     positions = np.array([[p.ravel() + [0.3, 2.5, 0.0] for p, _ in poses]] * K)
     rotations = np.array([[r for _, r in poses]] * K)
-    return scenario, mpc, hand_reference_matrix(positions, rotations)
+    return scenario, mpc, hand_rows(positions, rotations)
 
 
 def _footprint_margins(mpc, scenario, x) -> np.ndarray:
@@ -228,7 +230,7 @@ def test_hard_clearance_holds_binds_and_every_solver_reaches_the_same_optimum(ev
 def test_clearance_jacobian_and_curvature_match_finite_differences(eva, rng):
     _, mpc, ref = _walled(eva, "solver.name=rti")
     constraints, model = KnotConstraints(mpc.problem), KnotDerivatives(mpc.problem)
-    p = np.vstack([ref, mpc.obstacle_poses]).ravel(order="F")
+    p = mpc.layout.stack(ref, mpc.obstacle_poses)
     x = mpc._constant(eva.home) + 0.05 * rng.standard_normal(mpc.problem.n_vars)
     x[1::eva.n_dof] += 1.2  # base y: the footprint near the wall, both sides of the margin
     h, _, C = constraints.evaluate(x, p)

@@ -6,9 +6,10 @@ import pybullet
 import pytest
 from pybullet_utils.bullet_client import BulletClient
 
-from harmony_cli.scenario import load_scenario, wrist_sensor_joints
-from harmony_cli.sim import Simulation
-from harmony_cli.wrench import WristSensors, normal_forces
+from harmony_cli.robot.urdf import wrist_sensor_joints
+from harmony_cli.scenario import load_scenario
+from harmony_cli.sim.simulation import Simulation
+from harmony_cli.sim.wrench import WristSensors
 
 from conftest import ROOT, TABLE1, assert_rejected
 
@@ -114,7 +115,7 @@ def test_a_squeeze_reads_the_sum_of_the_pad_contact_normal_forces(sim, eva):
     _hold(sim, eva.home, 40)
     sensed, contacts = [], []
     for _ in range(20):
-        sensed.append(normal_forces(_hold(sim, eva.home, 1).wrenches))
+        sensed.append(_hold(sim, eva.home, 1).pad_forces)
         contacts.append([sum(point[9] for link in tool  # normal force of every contact on the tool's links
                              for point in c.getContactPoints(bodyA=sim.body, linkIndexA=link))
                          for tool in sim.wrists.tools])
@@ -127,7 +128,7 @@ def test_a_squeeze_reads_the_sum_of_the_pad_contact_normal_forces(sim, eva):
 def test_the_reaction_convention_holds_for_a_tool_with_a_rotated_inertial_frame(tmp_path):
     """PyBullet gives the reaction in the child's COM frame, about its COM: a tool whose inertial frame is
     rotated and offset from its link frame still reads zero without load, in a tilted posture."""
-    urdf = (ROOT / "scenarios/robots/eva.urdf").read_text()
+    urdf = (ROOT / "harmony_cli/robot/profiles/eva.urdf").read_text()
     tool = '<origin xyz="-0.04 0 -0.03" rpy="0 0 0"/>\n      <mass value="0.3113"/>'
     assert urdf.count(tool) == 2
     rotated = tmp_path / "eva_rotated_tool.urdf"
@@ -171,7 +172,7 @@ def test_sensing_does_not_change_the_dynamics(eva):
 
 def _write(tmp_path, robot):
     path = tmp_path / "bad.yaml"
-    path.write_text(f"name: x\nrobot: {{urdf: {ROOT / 'scenarios/robots/eva.urdf'}, {robot}}}\n"
+    path.write_text(f"name: x\nrobot: {{profile: eva, {robot}}}\n"
                     "reference: {type: hold}\n")
     return path
 
@@ -199,7 +200,7 @@ def test_sensor_joints_default_to_the_joint_above_the_link_holding_the_grasp_fra
 
 
 def test_the_force_low_pass_is_first_order_with_the_given_time_constant():
-    from harmony_cli.wrench import LowPass
+    from harmony_cli.maths.filters import LowPass
     dt, tau = 0.02, 0.05
     low = LowPass(tau, dt)
     assert np.allclose(low([0.0, 10.0]), [0.0, 10.0])  # starts at the first sample

@@ -1,0 +1,135 @@
+"""`harmony bench`: whole-body MPC solve time, both transcriptions x K x solver modes, side by side in one run.
+
+Each configuration replays the same kinematic closed loop (the command is executed exactly) along the
+scenario's reference; the configurations take turns step by step in this one process, so the ratios
+compare like with like even when the machine's speed drifts.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+from rich.console import Console
+from rich.progress import Progress
+from rich.table import Table
+
+from harmony_cli.experiment.run_dir import machine_meta
+from harmony_cli.mpc.knot_params import hand_rows
+from harmony_cli.mpc.wholebody import WholeBodyMPC
+from harmony_cli.report.metrics import time_stats_ms
+from harmony_cli.robot.model import load_robot
+from harmony_cli.scenario import load_scenario
+from harmony_cli.tasks.reference import HandReference
+
+TRANSCRIPTIONS = ("traditional", "bezier")
+
+
+class Replay:
+    """One configuration replaying a kinematic closed loop (the command is executed exactly)."""
+
+    def __init__(self, path: Path, overrides: list[str], start: float):
+        scenario = load_scenario(path, overrides)
+        self.robot = load_robot(scenario.robot, path.parent)
+        self.mpc = WholeBodyMPC(self.robot, scenario, scenario.sim.control_dt)
+        self.reference = HandReference(scenario.reference, self.robot.hand_poses_numeric(self.robot.home))
+        self.dt, self.start, self.q = scenario.sim.control_dt, start, self.robot.home.copy()
+        self.times, self.iterations, self.failures = [], [], 0
+
+    def step(self, k: int) -> None:
+        t = self.start + k * self.dt
+        command, result = self.mpc.step(self.q, hand_rows(*self.reference.poses(t + self.mpc.knot_times)))
+        self.q = command.q
+        self.times.append(1e3 * result.solve_time)
+        self.iterations.append(result.iterations)
+        self.failures += not result.success
+
+    def summary(self) -> dict:
+        return {"n_vars": self.mpc.problem.n_vars, "build_s": self.mpc.build_time, "failures": self.failures,
+                "qp": getattr(self.mpc.solver, "qp_name", None), "iterations": float(np.median(self.iterations)),
+                **time_stats_ms(self.times)}
+
+
+def run_bench(path: Path, knots: list[int], solvers: list[str], steps: int, start: float,
+              out: Path | None = None, console: Console | None = None) -> dict:
+    console = console or Console(width=160)
+    configs = [(s, tr, k) for s in solvers for k in knots for tr in TRANSCRIPTIONS]
+    with Progress(console=console, transient=True) as bar:
+        task = bar.add_task("building", total=len(configs))
+        replays = {}
+        for solver, tr, k in configs:
+            replays[(solver, tr, k)] = Replay(path, [f"mpc.transcription={tr}", f"mpc.knots={k}",
+                                                     f"solver.name={solver}"], start)
+            bar.advance(task)
+        # interleaved: step k of every configuration before step k + 1, so drift in machine speed hits all alike
+        task = bar.add_task("solving", total=steps)
+        for k in range(steps):
+            for replay in replays.values():
+                replay.step(k)
+            bar.advance(task)
+    results = {config: replay.summary() for config, replay in replays.items()}
+
+    title = f"Whole-body MPC solve time (ms), {steps} steps each, configurations interleaved step by step"
+    columns = ("solver", "transcription", "K", "vars", "median", "p95", "max", "iters", "failed",
+               "trad/bezier (median)", "K26/K6 (median)")
+    table = Table(title=title)
+    for col in columns:
+        table.add_column(col, justify="right")
+    rows = []
+    for (solver, tr, k), r in results.items():
+        other = results.get((solver, "bezier", k)) if tr == "traditional" else None
+        ratio_tb = f"{r['median'] / other['median']:.2f}" if other else ""
+        small, large = results.get((solver, tr, min(knots))), results.get((solver, tr, max(knots)))
+        ratio_k = f"{large['median'] / small['median']:.2f}" if k == max(knots) and small and len(knots) > 1 else ""
+        label = f"{solver} ({r['qp']})" if r["qp"] else solver
+        rows.append([label, tr, str(k), str(r["n_vars"]), f"{r['median']:.2f}", f"{r['p95']:.2f}",
+                     f"{r['max']:.2f}", f"{r['iterations']:.0f}", str(r["failures"]), ratio_tb, ratio_k])
+        table.add_row(*rows[-1])
+    console.print(table)
+    meta = machine_meta(1)
+    machine = f"{meta['cpu']}, {meta['cores']} cores, git {meta['git_sha']}"
+    console.print(machine)
+    report = {"meta": meta, "steps": steps,
+              "results": [{"solver": s, "transcription": tr, "knots": k, **r} for (s, tr, k), r in results.items()]}
+    if out:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(report, indent=2))
+        markdown = "| " + " | ".join(columns) + " |\n|" + "---|" * len(columns) + "\n"
+        markdown += "".join("| " + " | ".join(row) + " |\n" for row in rows)
+        out.with_suffix(".md").write_text(f"# {title}\n\n{markdown}\n{machine}\n")
+    return report
+
+
+def run_loop_bench(path: Path, out: Path | None = None, console: Console | None = None) -> dict:
+    """The two MPCs in series, every control step of a task scenario closed loop in PyBullet: loop time
+    (planner + whole-body MPC, observation to command), and each part, median / p95 / max."""
+    import tempfile
+
+    import pandas as pd
+
+    from harmony_cli.experiment.run import run_scenario
+
+    console = console or Console(width=160)
+    with tempfile.TemporaryDirectory() as tmp:
+        run_dir = run_scenario(path, [], Path(tmp) / "run", progress=True)
+        steps = pd.read_csv(run_dir / "steps.csv")
+        summary = json.loads((run_dir / "summary.json").read_text())
+    parts = {"full loop (planner + whole-body MPC)": steps["loop_ms"], "planner": steps["planner_ms"].dropna(),
+             "whole-body MPC": steps["solve_ms"]}
+    stats = {name: time_stats_ms(values) for name, values in parts.items()}
+    table = Table(title=f"{summary['name']}: {len(steps)} control steps closed loop in PyBullet (ms)")
+    for col in ("", "median", "p95", "max", "steps"):
+        table.add_column(col, justify="right")
+    for name, st in stats.items():
+        table.add_row(name, f"{st['median']:.2f}", f"{st['p95']:.2f}", f"{st['max']:.2f}", str(len(parts[name])))
+    console.print(table)
+    task = summary.get("task", {})
+    console.print(f"task success {task.get('success')}; the loop ran at {1e3 / stats[next(iter(stats))]['median']:.0f} Hz "
+                  f"median (the paper: 50 Hz)")
+    report = {"scenario": str(path), "meta": machine_meta(1), "steps": len(steps), "stats_ms": stats,
+              "success": task.get("success")}
+    if out:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(report, indent=2))
+    return report

@@ -1,0 +1,43 @@
+"""The closed loop: observe -> references at the knots -> whole-body MPC -> command -> physics -> log."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+from harmony_cli.experiment.step_log import step_record
+from harmony_cli.mpc.knot_params import hand_rows
+from harmony_cli.mpc.wholebody import WholeBodyMPC
+from harmony_cli.robot.observation import Observation
+from harmony_cli.sim.simulation import Simulation, Truth
+from harmony_cli.tasks.motion import Predictor
+from harmony_cli.tasks.targets import References
+
+Watch = Callable[[float, Observation, Truth], dict]  # logged fields from ground truth (e.g. the box: dropped?)
+
+
+def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duration: float, control_dt: float,
+             substeps: int, record: Callable[[dict], None], on_step: Callable[[int, int], None] = lambda i, n: None,
+             watch: Watch | None = None, predict: Predictor | None = None) -> None:
+    """Run the whole scenario; every step's record goes to `record` as soon as it exists (nothing is lost).
+
+    `loop_ms` is the wall time from the observation to the command: references (planner) + obstacle prediction +
+    whole-body MPC. The record (ground truth from `sim.truth()`, `watch`, cost terms) is built outside it.
+    `predict` (moving obstacles) gives the whole-body MPC the obstacles' centres at t + its knot times."""
+    n_steps = int(round(duration / control_dt))
+    for step in range(n_steps):
+        t = step * control_dt
+        obs = sim.observe()  # the MPC always starts from the measured state
+        start = time.perf_counter()
+        targets = references(t, obs, mpc.knot_times)
+        if predict is not None:
+            mpc.set_obstacle_centres(predict(t + mpc.knot_times))
+        command, result = mpc.step(obs.q, hand_rows(targets.positions, targets.rotations), targets.force_ref,
+                                   obs.pad_forces)
+        loop_ms = 1e3 * (time.perf_counter() - start)
+        truth = sim.truth()
+        watched = watch(t, obs, truth) if watch else {}
+        record(step_record(step, t, loop_ms, mpc, obs, targets, command, result, truth, watched))
+        sim.apply(command.q, command.qd)
+        sim.step(substeps)
+        on_step(step + 1, n_steps)

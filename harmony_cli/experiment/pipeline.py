@@ -1,0 +1,170 @@
+"""One closed-loop run of a validated scenario, in steps: build (robot, MPCs, simulation), simulate, summarise,
+plot. Whatever happens, the run directory keeps steps.csv, summary.json (status, and why it failed), meta.json
+and run.log."""
+
+from __future__ import annotations
+
+import json
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO
+
+import pandas as pd
+from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+from harmony_cli.experiment.loop import Watch, run_loop
+from harmony_cli.experiment.run_dir import machine_meta
+from harmony_cli.experiment.task_watch import TaskWatch
+from harmony_cli.mpc.wholebody import WholeBodyMPC
+from harmony_cli.report.metrics import displacement_from_twin
+from harmony_cli.report.plots import plot_run_dir
+from harmony_cli.report.summary import summarise_run
+from harmony_cli.robot.model import Robot, load_robot
+from harmony_cli.robot.urdf import hand_below
+from harmony_cli.scenario import Scenario
+from harmony_cli.sim.simulation import Simulation
+from harmony_cli.sim.video import VideoRecorder, frame_every
+from harmony_cli.tasks.motion import Predictor, obstacle_predictor
+from harmony_cli.tasks.reference import HandReference, trajectory_references
+from harmony_cli.tasks.targets import References
+from harmony_cli.tasks.two_stage import TaskReferences
+
+VIDEO_FPS, VIDEO_SIZE = 10.0, (480, 360)  # TinyRenderer: ~0.1 s per frame at this size on a 2-core VM
+
+
+class RunFailed(RuntimeError):
+    """A run that stopped part-way; its directory holds steps.csv, run.log and summary.json (status, error)."""
+
+    def __init__(self, run_dir: Path, reason: str):
+        super().__init__(f"{reason} (logs and status in {run_dir})")
+        self.run_dir = run_dir
+
+
+@dataclass
+class Built:
+    """What a run builds once, before its first control step."""
+
+    robot: Robot
+    mpc: WholeBodyMPC
+    sim: Simulation
+    references: References
+    watch: Watch | None
+    predict: Predictor | None
+
+
+def build(scenario: Scenario, scenario_dir: Path) -> Built:
+    robot = load_robot(scenario.robot, scenario_dir)
+    mpc = WholeBodyMPC(robot, scenario, scenario.sim.control_dt)
+    sim = Simulation(robot, scenario.sim, scenario.world, scenario.pushes)
+    if scenario.task is not None:
+        references = TaskReferences(robot, scenario)
+        return Built(robot, mpc, sim, references, TaskWatch(references), obstacle_predictor(scenario.world.obstacles))
+    reference = HandReference(scenario.reference, robot.hand_poses_numeric(robot.home))
+    return Built(robot, mpc, sim, trajectory_references(reference), None, obstacle_predictor(scenario.world.obstacles))
+
+
+def describe(scenario: Scenario, built: Built) -> dict:
+    """The summary's description of what was built."""
+    mpc = built.mpc
+    return {"transcription": scenario.mpc.transcription, "knots": scenario.mpc.knots,
+            "control_points": scenario.mpc.control_points if scenario.mpc.transcription == "bezier" else None,
+            "horizon_s": scenario.mpc.horizon, "solver": scenario.solver.name,
+            "decision_variables": mpc.problem.n_vars, "decision_label": mpc.transcription.decision_label,
+            "n_dof": built.robot.n_dof, "build_time_s": mpc.build_time}
+
+
+def solver_paths(built: Built) -> dict[str, str]:
+    """The code path each MPC's solver takes (meta.json): a run's speed depends on it."""
+    paths = {"whole_body_mpc": built.mpc.solver.path}
+    if isinstance(built.references, TaskReferences):
+        paths["planner"] = built.references.planner.path
+    return paths
+
+
+def simulate(built: Built, scenario: Scenario, rows: list[dict], log: IO[str], recorder: VideoRecorder | None,
+             progress: bool) -> float:
+    """The closed loop, every step's record appended to `rows` as it exists; returns the wall time [s]."""
+    every = frame_every(scenario.sim.control_dt, VIDEO_FPS)
+
+    def record(row: dict) -> None:
+        rows.append(row)
+        if not row["success"]:
+            log.write(f"t={row['t']:.2f}s: solve failed ({row['status']}); held the last good plan\n")
+            log.flush()
+        if row.get("planner_success") is False:
+            log.write(f"t={row['t']:.2f}s: planner failed ({row['planner_status']}); held its last plan\n")
+        if recorder and row["step"] % every == 0:
+            recorder.capture()
+
+    sim = scenario.sim
+    with Progress(TextColumn(f"[bold]{scenario.name}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                  TimeRemainingColumn(), disable=not progress, transient=False) as bar:
+        task = bar.add_task("run", total=int(round(sim.duration / sim.control_dt)))
+        start = time.perf_counter()
+        run_loop(built.mpc, built.sim, built.references, sim.duration, sim.control_dt, sim.substeps, record,
+                 lambda done, total: bar.update(task, completed=done), built.watch, built.predict)
+    return time.perf_counter() - start
+
+
+def _recorder(built: Built, video: Path | None) -> VideoRecorder | None:
+    if video is None:
+        return None
+    base = list(built.robot.base_joints[:2])
+    return VideoRecorder(built.sim.client, video, fps=VIDEO_FPS, size=VIDEO_SIZE,
+                         follow=lambda: built.sim.observe().q[base].tolist() + [0.6])
+
+
+def write_results(out: Path, scenario: Scenario, scenario_dir: Path, rows: list[dict], summary: dict, meta: dict,
+                  twin: pd.DataFrame | None) -> pd.DataFrame:
+    """steps.csv (with push displacements from the twin), the summary's metrics, summary.json and meta.json."""
+    steps = pd.DataFrame(rows)
+    hands = list(scenario.robot.end_effectors)
+    if len(steps) and twin is not None:
+        steps = displacement_from_twin(steps, twin, hands)
+    steps.to_csv(out / "steps.csv", index=False)
+    if len(steps):
+        urdf = (scenario_dir / scenario.robot.urdf).resolve()
+        pushed = {p.name: hand_below(p.link, urdf, scenario.robot.end_effectors)
+                  if p.body == "robot" and p.link is not None else None for p in scenario.pushes}
+        summary |= summarise_run(steps, scenario, hands, pushed)
+    (out / "meta.json").write_text(json.dumps(meta, indent=2))
+    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    return steps
+
+
+def execute(scenario: Scenario, scenario_dir: Path, out: Path, progress: bool = True, concurrency: int = 1,
+            video: Path | None = None, twin: pd.DataFrame | None = None, twin_info: dict | None = None) -> Path:
+    """Build, simulate, summarise and plot one run into `out` (its inputs already written there)."""
+    meta = machine_meta(concurrency) | {"seed": scenario.seed}
+    summary: dict = {"name": scenario.name, "status": "running"} | ({"push_free_twin": twin_info} if twin_info else {})
+    rows: list[dict] = []
+    recorder = None
+    log = (out / "run.log").open("w")
+    try:
+        built = build(scenario, scenario_dir)
+        summary |= describe(scenario, built)
+        meta["solver_paths"] = solver_paths(built)
+        log.write(f"built whole-body MPC: {built.mpc.problem.n_vars} decision variables in "
+                  f"{built.mpc.build_time:.2f} s\n" + "".join(f"{k}: {v}\n" for k, v in meta["solver_paths"].items()))
+        recorder = _recorder(built, video)
+        summary["wall_time_s"] = simulate(built, scenario, rows, log, recorder, progress)
+        built.sim.close()
+        summary["status"] = "completed"
+    except BaseException as exc:  # noqa: BLE001 - record why (interrupts too), then report
+        reason = f"{type(exc).__name__}: {str(exc).strip().splitlines()[-1] if str(exc).strip() else ''}"
+        summary |= {"status": "failed", "error": reason}
+        log.write(traceback.format_exc())
+        if not isinstance(exc, Exception):
+            raise
+        raise RunFailed(out, reason) from exc
+    finally:
+        if recorder:  # a run that fails part-way keeps its video up to there
+            summary["video"] = str(recorder.close())
+        steps = write_results(out, scenario, scenario_dir, rows, summary, meta, twin)
+        log.write(f"status: {summary['status']}\n")
+        log.close()
+        if len(steps):
+            plot_run_dir(out, steps, scenario, summary)
+    return out

@@ -1,0 +1,63 @@
+"""A run directory describes itself: the resolved scenario (re-runnable as is), the overrides that made it, and
+meta.json (package versions, git SHA, CPU, cores, concurrency, seed, the solver paths that ran)."""
+
+from __future__ import annotations
+
+import os
+import platform
+import subprocess
+from datetime import datetime
+from importlib import metadata
+from pathlib import Path
+
+import yaml
+
+from harmony_cli.scenario import Scenario, scenario_yaml
+
+PACKAGES = ("harmony-cli", "casadi", "pyoptas", "pin", "pybullet", "numpy", "pydantic", "pandas")
+
+
+def default_run_dir(name: str, root: Path = Path("results/runs")) -> Path:
+    return root / f"{name}-{datetime.now().strftime('%Y%m%d-%H%M%S-%f')}"
+
+
+def write_inputs(out: Path, path: Path, overrides: list[str], scenario: Scenario) -> None:
+    """scenario.resolved.yaml (the URDF made absolute: re-runnable from `out`) and overrides.yaml."""
+    out.mkdir(parents=True, exist_ok=True)
+    resolved = yaml.safe_load(scenario_yaml(scenario))
+    resolved["robot"]["urdf"] = str((path.parent / scenario.robot.urdf).resolve())
+    (out / "scenario.resolved.yaml").write_text(yaml.safe_dump(resolved, sort_keys=False))
+    (out / "overrides.yaml").write_text(yaml.safe_dump({"scenario": str(path), "overrides": list(overrides)}))
+
+
+def _git_sha() -> str:
+    here = Path(__file__).resolve().parent
+    try:
+        sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
+                               capture_output=True, text=True).stdout.strip()
+        return (sha + ("-dirty" if dirty else "")) or "unknown"
+    except OSError:
+        return "unknown"
+
+
+def _cpu() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def machine_meta(concurrency: int) -> dict:
+    versions = {}
+    for pkg in PACKAGES:
+        try:
+            versions[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            versions[pkg] = "absent"
+    return {"python": platform.python_version(), "packages": versions, "git_sha": _git_sha(), "cpu": _cpu(),
+            "cores": os.cpu_count(), "host": platform.node(), "concurrency": concurrency,
+            "started": datetime.now().isoformat(timespec="seconds")}

@@ -1,0 +1,56 @@
+"""Ablation grids for `harmony compare`: expand key=v1,v2 axes and run each point (in parallel with --jobs)."""
+
+from __future__ import annotations
+
+import itertools
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+from rich.progress import Progress
+
+from harmony_cli.experiment.run import run_scenario
+from harmony_cli.scenario import ScenarioError, apply_overrides
+
+
+def expand_grid(axes: list[str]) -> list[list[str]]:
+    """['a=1,2', 'b=x,y'] -> [['a=1','b=x'], ['a=1','b=y'], ['a=2','b=x'], ['a=2','b=y']]."""
+    parsed = []
+    for axis in axes:
+        key, sep, values = axis.partition("=")
+        if not sep or not key or not values:
+            raise ScenarioError(f"--grid {axis!r}: expected key.path=v1,v2,..., e.g. mpc.knots=6,26")
+        parsed.append([f"{key}={v}" for v in values.split(",")])
+    return [list(point) for point in itertools.product(*parsed)]
+
+
+def point_label(point: list[str]) -> str:
+    return "_".join(f"{key.split('.')[-1]}-{value}" for key, _, value in (i.partition("=") for i in point)) or "base"
+
+
+def _run_quiet(path: str, overrides: list[str], out: Path, jobs: int) -> Path:
+    return run_scenario(path, overrides, out, progress=False, concurrency=jobs)
+
+
+def run_grid(path: str | Path, axes: list[str], base_overrides: list[str], out: Path, jobs: int = 1) -> list[Path]:
+    """Run every grid point into out/runs/<label>; returns the run directories (failed runs included)."""
+    points = expand_grid(axes)
+    apply_overrides({}, base_overrides)  # reject malformed --set before any work starts
+    dirs = [out / "runs" / point_label(p) for p in points]
+    jobs_list = [(str(path), list(base_overrides) + p, d) for p, d in zip(points, dirs)]
+    with Progress() as bar:
+        task = bar.add_task(f"{len(points)} runs, {jobs} at a time", total=len(points))
+        if jobs <= 1:
+            for p, o, d in jobs_list:
+                try:
+                    _run_quiet(p, o, d, 1)
+                except Exception as exc:  # noqa: BLE001 - the run directory holds the status and log
+                    bar.console.print(f"[red]{d.name} failed: {exc}")
+                bar.advance(task)
+        else:
+            with ProcessPoolExecutor(max_workers=jobs) as pool:
+                futures = {pool.submit(_run_quiet, p, o, d, jobs): d for p, o, d in jobs_list}
+                for future in as_completed(futures):
+                    if future.exception():
+                        bar.console.print(f"[red]{futures[future].name} failed: {future.exception()}")
+                    bar.advance(task)
+    return dirs

@@ -1,0 +1,25 @@
+"""Rotations about the vertical axis and rotation errors."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def rot_z(angle: np.ndarray) -> np.ndarray:
+    """Rotations about z, shape angle.shape + (3, 3)."""
+    c, s = np.cos(angle), np.sin(angle)
+    rot = np.zeros(angle.shape + (3, 3))
+    rot[..., 0, 0], rot[..., 0, 1], rot[..., 1, 0], rot[..., 1, 1], rot[..., 2, 2] = c, -s, s, c, 1.0
+    return rot
+
+
+def rotation_error_deg(r: np.ndarray, r_ref: np.ndarray) -> float:
+    """Angle of r_ref^T r [deg]."""
+    cos = (np.trace(r_ref.T @ r) - 1) / 2
+    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+
+
+def heading_of(rotations: np.ndarray, home_rotations: np.ndarray) -> float:
+    """Common heading of the hands: mean yaw of R_h R_h(home)^T."""
+    relative = np.einsum("hij,hkj->hik", rotations, home_rotations)
+    return float(np.arctan2(relative[:, 1, 0].sum(), relative[:, 0, 0].sum()))

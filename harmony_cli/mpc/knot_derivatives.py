@@ -1,0 +1,160 @@
+"""Cost derivatives on the knot structure, evaluated in compiled C without copies.
+
+The nonlinear residual of knot k depends only on q_k = X_pos b_k, so f, its gradient and its Hessian
+(Gauss-Newton or exact) cost K small per-knot derivatives instead of one dense (mK x n_vars) Jacobian.
+"""
+
+from __future__ import annotations
+
+import casadi as cs
+import numpy as np
+import scipy.sparse as sp
+
+from harmony_cli.mpc.codegen import Buffered, code_path, compiled
+from harmony_cli.mpc.problem import Problem
+
+
+class KnotDerivatives:
+    """f, gradient and H = sum_k kron(b_k b_k^T, H_k) + 2 L^T L on the knot structure, with H_k = 2 J_k^T J_k
+    (Gauss-Newton) or, if exact, the Hessian of ||r_k(q_k)||^2 (then H is the exact Hessian of f).
+
+    The residual of knot k depends only on q_k = X_pos b_k: one evaluation is K small per-knot derivatives in
+    compiled C. H is kept as values on a fixed pattern: nonzero i sits at (rows[i], cols[i]), in CCS order.
+    """
+
+    def __init__(self, problem: Problem, exact: bool = False):
+        self.B, self.exact, (K, npos), n = problem.position_basis, exact, problem.position_basis.shape, problem.n_vars
+        q, ref = (cs.SX.sym(name, problem.task_residual.size1_in(i)) for i, name in enumerate(("q", "ref")))
+        r = problem.task_residual(q, ref)
+        self.n_dof, self.m, self.n_vars, nd = q.numel(), r.numel(), n, q.numel()
+        knot_maps = {"value": [r], "gradient": [r, cs.densify(cs.jacobian(r, q).T)],
+                     "hessian": [cs.densify(cs.hessian(cs.sumsqr(r), q)[0])]}
+        # line-search trial points need f only, gradients r and J; the exact per-knot Hessians cost the most
+        self.knot_functions = {kind: cs.Function(f"harmony_{kind}", [q, ref], outs).map(K)
+                               for kind, outs in knot_maps.items() if kind != "hessian" or exact}
+        maps = {kind: compiled(f) for kind, f in self.knot_functions.items()}
+        self.code_path = code_path(maps["value"])  # compiled C, or CasADi's VM without gcc
+        self.knots = {kind: Buffered(f) for kind, f in maps.items()}
+        self._cache = {}
+        self.L, self.Lt, self.c = sp.csr_matrix(problem.L), sp.csr_matrix(problem.L.T), problem.c
+        self.S = sp.csr_matrix(problem.S if problem.S is not None else (problem.c.size, problem.p.numel()))
+        # block (a, b) of the position Hessian is sum_k B[k, a] B[k, b] H_k; (b, a) is the same matrix (H_k
+        # symmetric), so one block per unordered nonzero pair
+        outer = np.einsum("ka,kb->kab", self.B, self.B)
+        a, b = np.nonzero(np.abs(outer).max(axis=0) > 0)
+        upper, i = a <= b, np.arange(nd)
+        self.W = outer[:, a[upper], b[upper]].T
+        block = np.zeros((npos, npos), dtype=int)
+        block[a[upper], b[upper]] = block[b[upper], a[upper]] = np.arange(upper.sum())
+        nl_rows = ((a * nd)[:, None, None] + i[:, None] + 0 * i).ravel()  # (pair, i, j) order
+        nl_cols = ((b * nd)[:, None, None] + 0 * i[:, None] + i).ravel()
+        nl_entry = ((block[a, b] * nd * nd)[:, None, None] + i[:, None] * nd + i).ravel()
+        H_lin = (2 * self.Lt @ self.L).tocoo()
+        rows, cols = np.r_[nl_rows, H_lin.row, np.arange(n)], np.r_[nl_cols, H_lin.col, np.arange(n)]
+        pattern = sp.csc_matrix((np.ones(rows.size), (rows, cols)), (n, n))
+        pattern.sort_indices()
+        self.rows, self.cols = pattern.indices, np.repeat(np.arange(n), np.diff(pattern.indptr))
+        self.lin_vals = np.asarray(H_lin.tocsr()[self.rows, self.cols]).ravel()
+        n_blocks = self.W.shape[0] * nd * nd
+        lookup = np.full((n, n), n_blocks)
+        lookup[nl_rows, nl_cols] = nl_entry
+        self.nl_index = lookup[self.rows, self.cols]  # into the flat knot blocks, then a trailing zero
+        self._blocks = np.zeros(n_blocks + 1)
+
+    def _knots(self, kind: str, x: np.ndarray, p: np.ndarray) -> dict[str, np.ndarray]:
+        """Per-knot outputs of one kind at (x, p), cached for the last point asked of that kind."""
+        hit = self._cache.get(kind)
+        if hit is None or not (np.array_equal(x, hit[0]) and np.array_equal(p, hit[1])):
+            nd, npos = self.n_dof, self.B.shape[1]
+            out = self.knots[kind](i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p)
+            hit = self._cache[kind] = x.copy(), p.copy(), {k: v.copy() for k, v in out.items()}
+        return hit[2]
+
+    def linear_residual(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        return self.L @ x + self.c + self.S @ p
+
+    def value(self, x: np.ndarray, p: np.ndarray) -> float:
+        r, r_lin = self._knots("value", x, p)["o0"], self.linear_residual(x, p)
+        return float(r @ r + r_lin @ r_lin)
+
+    def gradient(self, x: np.ndarray, p: np.ndarray) -> tuple[float, np.ndarray]:
+        nd, (K, npos) = self.n_dof, self.B.shape
+        out = self._knots("gradient", x, p)
+        r, J = out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, nd)  # J_k = d r_k / d q_k
+        r_lin = self.linear_residual(x, p)
+        g = 2 * (self.Lt @ r_lin)
+        g[: nd * npos] += 2 * (self.B.T @ np.einsum("kmi,km->ki", J, r)).ravel()
+        return float(r.ravel() @ r.ravel() + r_lin @ r_lin), g
+
+    def hessian(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """Hessian values on the pattern (rows, cols)."""
+        K = self.B.shape[0]
+        if self.exact:
+            H_k = self._knots("hessian", x, p)["o0"].reshape(K, -1)
+        else:
+            J = self._knots("gradient", x, p)["o1"].reshape(K, self.m, self.n_dof)
+            H_k = 2 * np.matmul(J.transpose(0, 2, 1), J).reshape(K, -1)
+        return self.lin_vals + self.assemble(H_k)
+
+    def assemble(self, H_k: np.ndarray) -> np.ndarray:
+        """sum_k kron(b_k b_k^T, H_k) on the pattern (rows, cols), from per-knot blocks H_k (K x n_dof^2)."""
+        np.matmul(self.W, H_k, out=self._blocks[:-1].reshape(self.W.shape[0], -1))
+        return self._blocks[self.nl_index]
+
+    def evaluate(self, x: np.ndarray, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+        """(f, gradient, Hessian values)."""
+        return *self.gradient(x, p), self.hessian(x, p)
+
+    def __call__(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Dense (H, gradient)."""
+        _, g = self.gradient(x, p)
+        H = np.zeros((x.size, x.size))
+        H[self.rows, self.cols] = self.hessian(x, p)
+        return H, g
+
+
+class KnotConstraints:
+    """Nonlinear rows h(q_k, ref_k) >= lower at the knots k >= 1 (knot 0 is the measured state) and their Jacobian
+    C = J_k (x) b_k over the position variables, from one compiled per-knot map. Rows are knot-major:
+    (k - 1) * m + j. lower = min(0, h(q_0)) per constraint: a state already inside a margin (a push, a moving
+    obstacle) may stay there but not go deeper, so the problem stays feasible."""
+
+    def __init__(self, problem: Problem):
+        self.B, n = problem.position_basis, problem.n_vars
+        (K, npos), nd = self.B.shape, problem.constraint.size1_in(0)
+        q, ref = (cs.SX.sym(name, problem.constraint.size1_in(i)) for i, name in enumerate(("q", "ref")))
+        h = problem.constraint(q, ref)
+        self.m, self.n_dof, self.n_rows = h.numel(), nd, (K - 1) * h.numel()
+        self.function, self.n_ref = problem.constraint, problem.constraint.size1_in(1)
+        J = cs.jacobian(h, q)
+        rows = compiled(cs.Function("harmony_clearance", [q, ref], [h, cs.densify(J.T)]).map(K))
+        self.code_path, self.map = code_path(rows), Buffered(rows)
+        lam = cs.SX.sym("lam", self.m)
+        self.curvature_map = Buffered(compiled(cs.Function(
+            "harmony_clearance_hessian", [q, ref, lam], [cs.densify(cs.hessian(cs.dot(lam, h), q)[0])]).map(K)))
+        structural = np.array(cs.DM(J.sparsity(), 1)) != 0  # m x nd: which joints each constraint depends on
+        self.pattern = np.zeros((self.n_rows, n), dtype=bool)  # x = [vec(positions) (nd * npos); anything else]
+        self.pattern[:, : nd * npos] = np.einsum("ka,ji->kjai", self.B[1:] != 0, structural).reshape(self.n_rows, -1)
+
+    def lower(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """Lower bounds of the rows: min(0, h(q_0)) per constraint, repeated for every knot >= 1."""
+        (K, npos), nd = self.B.shape, self.n_dof
+        q0 = x[: nd * npos].reshape((nd, npos), order="F") @ self.B[0]
+        h0 = np.array(self.function(q0, p[: self.n_ref])).ravel()
+        return np.tile(np.minimum(h0, 0.0), K - 1)
+
+    def evaluate(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(h at knots >= 1, lower bounds, C: n_rows x n_vars dense)."""
+        (K, npos), nd = self.B.shape, self.n_dof
+        out = self.map(i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p)
+        h, J = out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, nd)
+        C = np.zeros(self.pattern.shape)
+        C[:, : nd * npos] = np.einsum("kji,ka->kjai", J[1:], self.B[1:]).reshape(self.n_rows, -1)
+        return h[1:].ravel().copy(), np.tile(np.minimum(h[0], 0.0), K - 1), C  # h: a view of the map's buffer
+
+    def curvature(self, x: np.ndarray, p: np.ndarray, lam: np.ndarray) -> np.ndarray:
+        """Per-knot Hessians of lam . h with respect to q_k (K x n_dof^2; knot 0 has no rows: zero)."""
+        (K, npos), nd = self.B.shape, self.n_dof
+        out = self.curvature_map(i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p,
+                                 i2=np.r_[np.zeros(self.m), lam])
+        return out["o0"].reshape(K, nd * nd).copy()

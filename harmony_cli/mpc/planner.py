@@ -1,0 +1,250 @@
+"""Task-space planner (MPC-T): both hands' paths from their measured state to the phase goal at rest.
+
+Decision variables: Bezier control points (M per curve) of hand 0's and hand 1's positions and of their common
+heading psi, a (7, M) array. The hands stay level with their pads facing each other by construction,
+R_h(t) = Rz(psi(t)) R_h(home): a heading is an SO(2) curve, so there is no quaternion to normalise, and the goal
+heading is unwrapped to the one nearest the current heading (the same hemisphere). Costs keep the inter-hand
+vector across the heading (along the pad normals) and both hands at one height, and smooth the control points.
+
+Start: control points 0 and 1 from the measured positions and velocities; end: the last three at the goal (at
+rest: zero velocity and acceleration). Speed and acceleration bounds on the hodograph control points. Obstacles:
+the signed distance of each hand (and, while carrying, of the object between them) at sample times stays above
+its clearance, linearised at the current plan, from where the obstacle is at that time (a moving one's predicted
+centre); the hands keep the goal's distance apart. Gauss-Newton SQP over the free control points, one DAQP QP per
+iteration: `phase_iterations` at a phase change, `iterations` (1: real-time iteration) on every other step. When
+the bounds cannot be met by the phase's end, the horizon is stretched.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import casadi as cs
+import numpy as np
+
+from harmony_cli.maths.bezier import bernstein_basis, difference_matrix, shift_matrix
+from harmony_cli.maths.rotations import rot_z
+from harmony_cli.maths.shapes import Shape
+from harmony_cli.mpc.codegen import Buffered
+
+if TYPE_CHECKING:
+    from harmony_cli.scenario.models import PlannerSpec
+
+ROWS = 7  # hand 0 xyz, hand 1 xyz, heading
+STRETCHES = (1.0, 1.5, 2.25, 3.5, 5.0)  # horizon factors tried when the rate bounds cannot be met in time
+
+
+@dataclass(frozen=True)
+class HandState:
+    positions: np.ndarray  # (2, 3) world
+    velocities: np.ndarray  # (2, 3)
+    heading: float  # psi [rad]
+    heading_rate: float = 0.0  # [rad/s]
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    shape: Shape  # where it is at t = 0
+    clearance: float  # required signed distance of a hand centre [m] (margin + hand radius)
+    motion: Callable[[np.ndarray], np.ndarray] | None = None  # absolute times (n,) -> predicted centres (n, 3)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The planned curves over [start, start + horizon]; held at the goal after the end."""
+
+    control_points: np.ndarray  # (7, M)
+    start: float
+    horizon: float
+    home_rotations: np.ndarray  # (2, 3, 3)
+
+    def rates(self, t: float) -> np.ndarray:
+        """d/dt of the 7 curves at absolute time t (zero after the end)."""
+        s = (t - self.start) / self.horizon
+        if s >= 1.0:
+            return np.zeros(ROWS)
+        n = self.control_points.shape[1] - 1
+        hodograph = n * np.diff(self.control_points, axis=1) / self.horizon
+        return hodograph @ bernstein_basis(n, max(s, 0.0))[0]
+
+    def sample(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Hand positions (n, 2, 3) and rotations (n, 2, 3, 3) at absolute times."""
+        s = np.clip((np.atleast_1d(times) - self.start) / self.horizon, 0.0, 1.0)
+        values = self.control_points @ bernstein_basis(self.control_points.shape[1], s).T  # (7, n)
+        positions = values[:6].T.reshape(-1, 2, 3)
+        rotations = np.einsum("nij,hjk->nhik", rot_z(values[6]), self.home_rotations)
+        return positions, rotations
+
+
+@dataclass(frozen=True)
+class PlannerResult:
+    plan: Plan
+    success: bool
+    status: str
+    iterations: int
+    solve_time: float
+    min_clearance: float  # predicted, over samples and obstacles [m] (inf without obstacles)
+
+
+class TaskPlanner:
+    """Built once for a set of obstacles; `step` re-plans from the measured hand state."""
+
+    def __init__(self, spec: PlannerSpec, obstacles: list[Obstacle], home_rotations: np.ndarray, heading_offset: float):
+        self.spec, self.obstacles, self.home_rotations = spec, obstacles, home_rotations
+        self.heading_offset = heading_offset  # heading = angle(p_1 - p_0) + offset (pads face each other)
+        M = self.M = spec.control_points
+        self.free = np.zeros((ROWS, M), dtype=bool)
+        self.free[:, 2:M - 3] = True
+        self.n_free = int(self.free.sum())
+        s = self.s = np.linspace(0.0, 1.0, spec.samples + 1)[1:]  # obstacle and facing samples (s = 0 is fixed)
+        self.B = bernstein_basis(M, s)  # (S, M)
+        D1, D2 = difference_matrix(M, 1), difference_matrix(M, 2)
+        eye = np.eye(ROWS)
+        w = spec.weights
+        # linear residuals: smoothness (first and second differences of every curve) and level hands
+        level = np.zeros((M, ROWS * M))
+        level[:, 2 * M:3 * M], level[:, 5 * M:6 * M] = np.eye(M), -np.eye(M)
+        self.J_lin = np.vstack([w.smoothness * np.kron(eye, D1), w.acceleration * np.kron(eye, D2),
+                                w.level * level])
+        # bound rows: hodograph control points of velocity and acceleration, per curve (bounds scale with T)
+        self.A = np.vstack([np.kron(eye, D1), np.kron(eye, D2)])
+        n1, n2 = D1.shape[0], D2.shape[0]
+        v = np.r_[spec.max_speed, spec.max_speed, spec.max_yaw_rate]
+        a = np.r_[spec.max_acceleration, spec.max_acceleration, spec.max_yaw_acceleration]
+        self._rate_limits = np.r_[np.repeat(v, n1), np.repeat(a, n2)]
+        self._rate_order = np.r_[np.ones(ROWS * n1), 2 * np.ones(ROWS * n2)]
+        self.keep = np.any(self.A[:, self.free.ravel()] != 0, axis=1)  # rows with a free variable
+        self.n_points = 3  # hand 0, hand 1, the carried object (midpoint)
+        n_rows = int(self.keep.sum()) + len(obstacles) * self.n_points * s.size
+        self.qp = Buffered(cs.conic("planner", spec.qp, {"h": cs.Sparsity.dense(self.n_free, self.n_free),
+                                                         "a": cs.Sparsity.dense(n_rows, self.n_free)},
+                                    {"error_on_fail": False}))
+        self.C, self.phase, self.t_plan, self.T_plan = None, None, 0.0, 1.0
+        self.path = f"Gauss-Newton SQP on the control points, {spec.qp} QP, numpy derivatives"
+
+    def _fixed(self, C: np.ndarray, state: HandState, goal: np.ndarray, goal_heading: float, T: float):
+        n = self.M - 1
+        start = np.r_[state.positions.ravel(), state.heading]
+        rate = np.r_[state.velocities.ravel(), state.heading_rate]
+        end = np.r_[goal.ravel(), goal_heading]
+        C[:, 0], C[:, 1] = start, start + rate * T / n
+        C[:, -3:] = end[:, None]
+
+    def goal_heading(self, goal: np.ndarray, heading_now: float) -> float:
+        d = goal[1] - goal[0]
+        heading = np.arctan2(d[1], d[0]) + self.heading_offset
+        return heading_now + (heading - heading_now + np.pi) % (2 * np.pi) - np.pi  # nearest to heading_now
+
+    def step(self, t: float, state: HandState, goal: np.ndarray, phase_end: float, phase: int,
+             carrying_radius: float | None = None, carrying_drop: float = 0.0) -> PlannerResult:
+        """Re-plan at time t towards `goal` (2, 3) for phase number `phase` ending at `phase_end`.
+
+        While carrying, the object is the point `carrying_drop` below the hands' midpoint (its bottom centre)
+        kept clear of every obstacle grown sideways by `carrying_radius` (its half diagonal): a box-like object
+        over a flat-topped obstacle needs its bottom above the top, not a sphere's worth above it."""
+        carried = None if carrying_radius is None else (carrying_radius, carrying_drop)
+        start_time = time.perf_counter()
+        spec, M = self.spec, self.M
+        T = max(phase_end - t, spec.min_horizon)
+        heading_goal = self.goal_heading(goal, state.heading)
+        if self.C is None or phase != self.phase:  # straight line to the goal, then full SQP
+            C = np.zeros((ROWS, M))
+            start, end = np.r_[state.positions.ravel(), state.heading], np.r_[goal.ravel(), heading_goal]
+            C[:] = start[:, None] + (end - start)[:, None] * np.linspace(0, 1, M)
+            iterations = spec.phase_iterations
+        else:  # the previous plan from now on (de Casteljau), re-timed to the new horizon
+            tau = np.clip((t - self.t_plan) / self.T_plan, 0.0, 0.99)
+            C = self.C @ shift_matrix(M, tau) if tau > 0 else self.C.copy()
+            iterations = spec.iterations
+        width = float(np.linalg.norm(goal[1] - goal[0]))
+        status, success, clearance, it = "max_iter", True, np.inf, 0
+        # the measured start may not allow reaching the goal at rest within the rate bounds by the phase's end
+        # (the hands lag, the phase is short): then the plan takes longer, and says so
+        for stretch in STRETCHES:
+            self._fixed(C, state, goal, heading_goal, T * stretch)
+            step, clearance, status = self._sqp_step(C, t, T * stretch, carried, width)
+            if step is not None:
+                break
+        T *= stretch
+        suffix = f" (horizon stretched x{stretch:g})" if stretch > 1 else ""
+        for it in range(1, iterations + 1):
+            if it > 1:
+                step, clearance, status = self._sqp_step(C, t, T, carried, width)
+            if step is None:
+                success = False
+                break
+            C[self.free] += step
+            if np.max(np.abs(step)) < spec.tol:
+                status = "converged"
+                break
+        status += suffix
+        if success:
+            self.C, self.phase, self.t_plan, self.T_plan = C, phase, t, T
+        elif self.C is None:
+            raise RuntimeError(f"first planner solve failed ({status}); no plan to hold")
+        plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
+        return PlannerResult(plan, success, status, it, time.perf_counter() - start_time, clearance)
+
+    def _sqp_step(self, C: np.ndarray, t: float, T: float, carried: tuple[float, float] | None, width: float):
+        """One Gauss-Newton QP over the free control points of the plan over [t, t + T]: (step or None, predicted
+        clearance, status)."""
+        free = self.free.ravel()
+        x = C.ravel()
+        # facing residual (p_1 - p_0) . h(psi) at the samples, h = (cos, sin, 0), and its Jacobian
+        curves = C @ self.B.T  # (7, S)
+        d, psi = curves[3:5] - curves[0:2], curves[6]
+        h, dh = np.stack([np.cos(psi), np.sin(psi)]), np.stack([-np.sin(psi), np.cos(psi)])
+        w = self.spec.weights.facing
+        r_face = w * np.sum(d * h, axis=0)
+        J_face = np.zeros((psi.size, ROWS, self.M))
+        for axis in range(2):
+            J_face[:, axis] = -w * h[axis][:, None] * self.B
+            J_face[:, 3 + axis] = w * h[axis][:, None] * self.B
+        J_face[:, 6] = w * np.sum(d * dh, axis=0)[:, None] * self.B
+        # grip width: |p_1 - p_0| stays the goal's (a held box is not stretched; hands do not straddle obstacles)
+        across = curves[3:6] - curves[0:3]
+        length = np.maximum(np.linalg.norm(across, axis=0), 1e-9)
+        w = self.spec.weights.width
+        r_width = w * (length - width)
+        J_width = np.zeros((psi.size, ROWS, self.M))
+        for axis in range(3):
+            J_width[:, axis] = -w * (across[axis] / length)[:, None] * self.B
+            J_width[:, 3 + axis] = w * (across[axis] / length)[:, None] * self.B
+        r = np.r_[self.J_lin @ x, r_face, r_width]
+        J = np.vstack([self.J_lin, J_face.reshape(psi.size, -1), J_width.reshape(psi.size, -1)])[:, free]
+        H = J.T @ J + 1e-9 * np.eye(self.n_free)
+        g = J.T @ r
+        limit = self._rate_limits * T**self._rate_order  # D^k P are s-derivatives: time derivative = D^k P / T^k
+        Ax = self.A @ x
+        rows = [self.A[self.keep][:, free]]
+        lba, uba = [(-limit - Ax)[self.keep]], [(limit - Ax)[self.keep]]
+        clearance = np.inf
+        object_point = 0.5 * (curves[0:3] + curves[3:6]).T - [0.0, 0.0, carried[1] if carried else 0.0]
+        points = [curves[0:3].T, curves[3:6].T, object_point]
+        weights = [(1.0, 0.0), (0.0, 1.0), (0.5, 0.5)]
+        for obstacle in self.obstacles:
+            # a moving obstacle at each sample time: the points relative to it, as if it stood at shape.centre
+            moved = 0.0 if obstacle.motion is None else obstacle.motion(t + T * self.s) - obstacle.shape.centre
+            for k, (p, (w0, w1)) in enumerate(zip(points, weights)):
+                active = k < 2 or carried is not None
+                shape = obstacle.shape if k < 2 or not active else obstacle.shape.grown(carried[0])
+                dist, grad = shape.distance(p - moved)
+                needed = obstacle.clearance
+                row = np.zeros((psi.size, ROWS, self.M))
+                for axis in range(3):
+                    row[:, axis] = w0 * grad[:, axis][:, None] * self.B
+                    row[:, 3 + axis] = w1 * grad[:, axis][:, None] * self.B
+                rows.append(row.reshape(psi.size, -1)[:, free] if active else np.zeros((psi.size, self.n_free)))
+                lba.append(needed - dist if active else np.full(psi.size, -np.inf))
+                uba.append(np.full(psi.size, np.inf))
+                if active:
+                    clearance = min(clearance, float(np.min(dist - needed)))
+        out = self.qp(h=H, g=g, a=np.vstack(rows), lba=np.concatenate(lba), uba=np.concatenate(uba),
+                      lbx=-np.inf, ubx=np.inf)
+        stats = self.qp.stats()
+        if stats["success"]:
+            return out["x"].copy(), clearance, "rti_step"
+        return None, clearance, f"qp_failed: {stats.get('return_status', '?')}"

@@ -1,0 +1,114 @@
+"""The contract between an MPC and its solver: a built Problem in, a SolveResult out (after qpsolvers)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Protocol
+
+import casadi as cs
+import numpy as np
+
+
+@dataclass
+class Problem:
+    """A built MPC problem: f = sum of named terms = ||r_task(q_k)||^2 summed over knots + ||L x + c + S p||^2,
+    subject to lb <= A x <= ub and, if `constraint` is given, constraint(q_k, ref_k) >= lower at knots k >= 1
+    with lower = min(0, constraint(q_0, ref_0)) (a state already inside a margin may stay but not go deeper)."""
+
+    x: cs.SX
+    p: cs.SX
+    terms: dict[str, cs.SX]
+    A: np.ndarray  # linear rows lb <= A x <= ub (constant)
+    lb: np.ndarray
+    ub: np.ndarray
+    # Gauss-Newton structure: q_knots = X_pos @ position_basis.T with X_pos = x[:n_dof * n_pos] (column-major)
+    task_residual: cs.Function  # (q[n_dof], ref[m]) -> r[m]
+    position_basis: np.ndarray  # K x n_pos
+    ref_shape: tuple[int, int]  # p = vec(ref) with ref m x K
+    L: np.ndarray  # linear residual r_lin = L x + c + S p
+    c: np.ndarray
+    S: np.ndarray | None = None  # None: no parameters in the linear residual
+    constraint: cs.Function | None = None  # (q[n_dof], ref[m]) -> h, e.g. obstacle clearance margins
+    term_values: cs.Function = field(init=False)
+    constraint_at_knots: cs.Function | None = field(init=False)
+
+    def __post_init__(self):
+        self.term_values = cs.Function("terms", [self.x, self.p], list(self.terms.values()))
+        K = self.position_basis.shape[0]
+        self.constraint_at_knots = None if self.constraint is None else self.constraint.map(K)
+
+    @property
+    def n_vars(self) -> int:
+        return self.x.numel()
+
+    def evaluate_terms(self, x: np.ndarray, p: np.ndarray) -> dict[str, float]:
+        return {k: float(v) for k, v in zip(self.terms, self.term_values(x, p))}
+
+    def knot_positions(self, x: np.ndarray) -> np.ndarray:
+        """q at the knots (n_dof x K) of a solution x."""
+        n_pos = self.position_basis.shape[1]
+        n_dof = self.task_residual.size1_in(0)
+        return x[: n_dof * n_pos].reshape((n_dof, n_pos), order="F") @ self.position_basis.T
+
+    def max_violation(self, x: np.ndarray, p: np.ndarray, lbx: np.ndarray, ubx: np.ndarray) -> float:
+        """The largest violation of any bound, linear row or constraint row by x [their units]."""
+        Ax = self.A @ x
+        parts = [lbx - x, x - ubx, self.lb - Ax, Ax - self.ub]
+        if self.constraint_at_knots is not None:
+            h = np.array(self.constraint_at_knots(self.knot_positions(x), p.reshape(self.ref_shape, order="F")))
+            parts.append(np.minimum(h[:, :1], 0.0) - h[:, 1:])
+        return float(max(0.0, *(np.max(v, initial=0.0) for v in parts)))
+
+
+@dataclass(frozen=True)
+class SolveResult:
+    """One solve. `cost_terms` and `max_violation` are evaluated on first use, outside the timed solve."""
+
+    x: np.ndarray
+    success: bool
+    status: str
+    iterations: int
+    solve_time: float  # wall seconds of the solve, excluding build_time
+    build_time: float = 0.0  # wall seconds spent in this call building solver structures (first use of a pattern)
+    path: str = ""  # the code path that solved (see Solver.path)
+    problem: Problem | None = field(default=None, repr=False, compare=False)
+    p: np.ndarray | None = field(default=None, repr=False, compare=False)
+    lbx: np.ndarray | None = field(default=None, repr=False, compare=False)
+    ubx: np.ndarray | None = field(default=None, repr=False, compare=False)
+
+    @cached_property
+    def cost_terms(self) -> dict[str, float]:
+        """Every named cost term at x."""
+        if self.problem is None or self.p is None:
+            return {}
+        return self.problem.evaluate_terms(self.x, self.p)
+
+    @cached_property
+    def max_violation(self) -> float:
+        """The largest violation of the bounds, linear rows and constraint rows at x (0: feasible)."""
+        if self.problem is None or self.p is None or self.lbx is None or self.ubx is None:
+            return float("nan")
+        return self.problem.max_violation(self.x, self.p, self.lbx, self.ubx)
+
+
+class Solver(Protocol):
+    """Solves one Problem again and again from new (x0, bounds, parameters), warm-started."""
+
+    path: str  # what runs, e.g. "ipopt: native C oracle, clearance rows through Python callbacks"
+
+    def solve(self, x0: np.ndarray, lbx: np.ndarray, ubx: np.ndarray, p: np.ndarray) -> SolveResult: ...
+
+
+def linear_rows(x: cs.SX, named: dict[str, tuple]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Stack named (expr, lb, ub) rows that must be affine in x into (A, lb, ub) with lb - A(0) offsets."""
+    A, lb, ub = [], [], []
+    for name, (expr, lo, hi) in named.items():
+        if not cs.is_linear(expr, x):
+            raise ValueError(f"constraint {name!r} is not linear in the decision variables")
+        jac = cs.Function("row_jacobian", [x], [cs.jacobian(expr, x), expr])
+        a, offset = (np.array(v) for v in jac(np.zeros(x.numel())))
+        A.append(a), lb.append(np.asarray(lo) - offset.ravel()), ub.append(np.asarray(hi) - offset.ravel())
+    if not A:
+        return np.zeros((0, x.numel())), np.zeros(0), np.zeros(0)
+    return np.vstack(A), np.concatenate(lb), np.concatenate(ub)

@@ -1,0 +1,69 @@
+"""Which solvers harmony offers, in one place: its own Gauss-Newton modes and the CasADi NLP plugins that load on
+this machine; `make_solver` builds one for a problem and says which code path it took."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Literal, get_args
+
+if TYPE_CHECKING:  # casadi and the solvers load only when a solver is built (validation stays light)
+    from harmony_cli.mpc.problem import Problem, Solver
+    from harmony_cli.scenario.models import SolverSpec
+
+HARMONY_SOLVERS = {"gauss_newton": "Gauss-Newton SQP to convergence, one QP per iteration",
+                   "rti": "real-time iteration: one Gauss-Newton QP per control step"}
+NLP_CANDIDATES = ("ipopt", "sqpmethod", "feasiblesqpmethod", "blocksqp", "fatrop", "bonmin", "uno", "knitro",
+                  "snopt", "worhp", "madnlp")
+QpName = Literal["daqp", "qpoases", "osqp", "proxqp"]
+QP_SOLVERS: tuple[str, ...] = get_args(QpName)
+HINTS = {"knitro": "the KNITRO plugin needs libknitro on the loader path and a licence"}
+
+
+class SolverUnavailable(RuntimeError):
+    """A solver that cannot be used here; the message is one line naming solver.name, the value and the choices."""
+
+
+def available_nlp_plugins() -> tuple[str, ...]:
+    """CasADi NLP plugins that load on this machine (KNITRO only with its library present)."""
+    import casadi as cs
+
+    return tuple(n for n in NLP_CANDIDATES if cs.has_nlpsol(n))
+
+
+def available_solvers() -> tuple[str, ...]:
+    """Every valid solver.name here: harmony's modes, then the NLP plugins that load."""
+    return tuple(HARMONY_SOLVERS) + available_nlp_plugins()
+
+
+def unavailable_message(name: str) -> str:
+    """One line: solver.name, the value, why (a hint where one is known) and the valid choices."""
+    hint = f" ({HINTS[name]})" if name in HINTS else ""
+    return f"solver.name: {name!r} is not available on this machine{hint}; choose one of: " \
+           f"{', '.join(available_solvers())}"
+
+
+def qp_solver_for(qp: str, n_vars: int, real_time_iteration: bool) -> str:
+    """`auto`: dense active-set DAQP for small QPs (Bezier); sparse solvers for large ones (traditional K=26):
+    OSQP for one RTI step, proxqp for SQP, where OSQP's accuracy stalls the step-size convergence test."""
+    if qp != "auto":
+        return qp
+    if n_vars <= 300:
+        return "daqp"
+    return "osqp" if real_time_iteration else "proxqp"
+
+
+def make_solver(problem: Problem, spec: SolverSpec) -> Solver:
+    """The solver of a scenario's `solver` section. An NLP plugin that rejects harmony's structured oracles
+    gets CasADi's AD on the whole problem instead (slower; its `path` says so and why)."""
+    from harmony_cli.mpc.gauss_newton import GaussNewtonSolver
+    from harmony_cli.mpc.nlp import NlpSolver, SymbolicNlpSolver
+
+    if spec.name in HARMONY_SOLVERS:
+        rti = spec.name == "rti"
+        return GaussNewtonSolver(problem, qp_solver_for(spec.qp, problem.n_vars, rti), 1 if rti else spec.max_iter,
+                                 spec.tol, spec.name)
+    if spec.name not in available_nlp_plugins():
+        raise SolverUnavailable(unavailable_message(spec.name))
+    try:
+        return NlpSolver(problem, spec.name, dict(spec.options), spec.hessian)
+    except SolverUnavailable as exc:
+        return SymbolicNlpSolver(problem, spec.name, dict(spec.options), reason=str(exc))

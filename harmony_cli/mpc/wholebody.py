@@ -1,0 +1,95 @@
+"""Whole-body MPC (MPC-W): track both hands' poses at K knots with all joints, built once, warm-started."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from harmony_cli.maths.filters import LowPass
+from harmony_cli.mpc.clearance import scene_clearances
+from harmony_cli.mpc.knot_params import KnotLayout
+from harmony_cli.mpc.problem import SolveResult
+from harmony_cli.mpc.registry import make_solver
+from harmony_cli.mpc.transcription import make_transcription
+from harmony_cli.mpc.wholebody_problem import build_problem, joint_limits
+from harmony_cli.robot.model import Robot
+
+if TYPE_CHECKING:
+    from harmony_cli.scenario.models import Scenario
+
+
+@dataclass(frozen=True)
+class Command:
+    q: np.ndarray  # position targets at t + control_dt
+    qd: np.ndarray  # velocity targets (base: mean velocity over the control period)
+    held: bool  # True when the solve failed and the last good plan was used
+    offsets: np.ndarray = field(default_factory=lambda: np.zeros(0))  # compliant offsets at t + control_dt [m]
+
+
+class WholeBodyMPC:
+    """Built once; `step` solves from the measured state and reads out the command for the next period."""
+
+    def __init__(self, robot: Robot, scenario: Scenario, control_dt: float):
+        start = time.perf_counter()
+        self.robot, self.control_dt = robot, control_dt
+        self.admittance = scenario.admittance if scenario.admittance.enabled else None
+        self.n_hands = len(robot.end_effectors)
+        self.limits = joint_limits(robot, self.admittance)
+        self.transcription = make_transcription(scenario.mpc, self.limits[0].size)
+        self.clearances, poses = scene_clearances(scenario.world, scenario.planner.hand_radius,
+                                                  scenario.robot.base_margin)
+        self.layout = KnotLayout(self.n_hands, len(self.clearances), self.admittance is not None)
+        # obstacle poses at every knot (rows of the knot parameters after the hands'); moving ones update them
+        self.obstacle_poses = np.tile(poses[:, None], self.transcription.n_knots)
+        self.problem = build_problem(robot, self.transcription, scenario.mpc.weights, scenario.robot.chest_joints,
+                                     scenario.robot.mirrored_joints, self.clearances,
+                                     tuple(map(tuple, scenario.robot.footprint)) if self.clearances else (),
+                                     scenario.mpc.clearance, self.admittance)
+        self.solver = make_solver(self.problem, scenario.solver)
+        self.build_time = time.perf_counter() - start
+        self.x: np.ndarray | None = None  # last good solution
+        self.pinned = list(robot.pinned_joints)
+        self.force_filter = LowPass(self.admittance.force_filter, control_dt) if self.admittance else None
+        self.force_seen = np.zeros(self.n_hands)  # the filtered pad forces the last step's admittance used [N]
+
+    @property
+    def knot_times(self) -> np.ndarray:
+        return self.transcription.knot_times
+
+    def set_obstacle_centres(self, centres: np.ndarray) -> None:
+        """Predicted centres (obstacles, K, 3) of the world's obstacles (scenario order, the first clearances) at
+        the knot times of the next `step`; yaws and table legs stay as built."""
+        for o, at_knots in enumerate(centres):
+            self.obstacle_poses[self.layout.pose_centre(o)] = at_knots.T
+
+    def _constant(self, q_now: np.ndarray) -> np.ndarray:
+        t = self.transcription
+        positions = np.tile(q_now[:, None], t.position_basis.shape[1]).ravel("F")
+        return np.concatenate([positions, np.zeros(t.n_vars - positions.size)])
+
+    def step(self, q_now: np.ndarray, hand_ref: np.ndarray, force_ref: np.ndarray | None = None,
+             force_meas: np.ndarray | None = None) -> tuple[Command, SolveResult]:
+        """hand_ref: (12 * hands) x K references at the knot times (knot_params.hand_rows); with admittance,
+        force_ref: hands x K squeeze force references and force_meas: (hands,) measured pad normal forces [N]."""
+        if self.force_filter is not None and force_meas is not None:
+            self.force_seen = self.force_filter(force_meas)
+        self.params = self.layout.stack(hand_ref, self.obstacle_poses, force_ref, self.force_seen)
+        t, dt, robot = self.transcription, self.control_dt, self.robot
+        q_init = np.r_[q_now, np.zeros(t.n_dof - q_now.size)]  # the compliant offsets start at 0
+        q_init[self.pinned] = robot.home[self.pinned]
+        lbx, ubx = t.bounds(*self.limits, q_init, self.pinned, robot.home[self.pinned])
+        x0 = self._constant(q_init) if self.x is None else t.shift(self.x, dt)
+        result = self.solver.solve(np.clip(x0, lbx, ubx), lbx, ubx, self.params)
+        held = not result.success
+        if held and self.x is None:
+            raise RuntimeError(f"first whole-body MPC solve failed ({result.status}); no plan to hold")
+        self.x = t.shift(self.x, dt) if held else result.x
+        # A held plan is read out from its shifted copy: it continues from where it was, not from q_now.
+        q_cmd, qd_cmd = t.readout(self.x, dt)
+        base = list(robot.base_joints)  # velocity-commanded: the plan's mean velocity over the period
+        qd_cmd[base] = (q_cmd[base] - t.readout(self.x, 0.0)[0][base]) / dt
+        nd = robot.n_dof
+        return Command(q_cmd[:nd], qd_cmd[:nd], held, q_cmd[nd:]), result

@@ -1,0 +1,2 @@
+"""Robots: URDF reading and preparation, the kinematic model every MPC uses, and robot profiles (data files of a
+robot's defaults: URDF, hands, joint roles, home pose, base footprint)."""

@@ -1,0 +1,67 @@
+"""Reading a scenario file: YAML, `--set` overrides, validation, cross-checks; and writing it back resolved."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import yaml
+from pydantic import ValidationError
+
+from harmony_cli.scenario.checks import check_pushes, check_robot, check_solver, check_task
+from harmony_cli.scenario.errors import ScenarioError, one_line
+from harmony_cli.scenario.models import Scenario
+
+
+def apply_overrides(raw: dict, overrides: list[str]) -> dict:
+    """Apply `a.b.c=value` overrides (value parsed as YAML) to a raw scenario mapping; a number indexes a list
+    (`world.obstacles.0.motion=null`)."""
+    raw = copy.deepcopy(raw)
+    for item in overrides:
+        key, sep, text = item.partition("=")
+        if not sep or not key:
+            raise ScenarioError(f"--set {item!r}: expected key.path=value, e.g. mpc.knots=26")
+        node = raw
+        *parents, leaf = key.split(".")
+        for part in parents:
+            if isinstance(node, list):
+                if not part.isdigit() or int(part) >= len(node):
+                    raise ScenarioError(f"--set {item!r}: {part!r} is not an index of a list of {len(node)}")
+                node = node[int(part)]
+            else:
+                node = node.setdefault(part, {})
+            if not isinstance(node, (dict, list)):
+                raise ScenarioError(f"--set {item!r}: {part!r} is not a section or a list")
+        if isinstance(node, list):
+            if not leaf.isdigit() or int(leaf) >= len(node):
+                raise ScenarioError(f"--set {item!r}: {leaf!r} is not an index of a list of {len(node)}")
+            leaf = int(leaf)
+        node[leaf] = yaml.safe_load(text)
+    return raw
+
+
+def load_scenario(path: str | Path, overrides: list[str] = ()) -> Scenario:
+    """Read, override and validate a scenario; raise ScenarioError with a one-line message."""
+    path = Path(path)
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except FileNotFoundError:
+        raise ScenarioError(f"{path}: file not found") from None
+    except yaml.YAMLError as exc:
+        raise ScenarioError(f"{path}: not valid YAML: {str(exc).splitlines()[0]}") from None
+    if not isinstance(raw, dict):
+        raise ScenarioError(f"{path}: expected a mapping at the top level, got {type(raw).__name__}")
+    raw = apply_overrides(raw, list(overrides))
+    try:
+        scenario = Scenario.model_validate(raw)
+    except ValidationError as err:
+        raise ScenarioError(one_line(path, err)) from None
+    check_robot(path, scenario)
+    check_task(path, scenario)
+    check_pushes(path, scenario)
+    check_solver(path, scenario)
+    return scenario
+
+
+def scenario_yaml(scenario: Scenario) -> str:
+    return yaml.safe_dump(scenario.model_dump(mode="json"), sort_keys=False)

@@ -1,0 +1,150 @@
+"""The scenario file's top level and its controller, solver and simulation sections (unknown keys rejected)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+from pydantic import Field, PositiveFloat, ValidationInfo, field_validator
+
+from harmony_cli.mpc.registry import HARMONY_SOLVERS, QpName
+from harmony_cli.scenario.base import Strict
+from harmony_cli.scenario.robot import RobotSpec
+from harmony_cli.scenario.task import Reference, TaskSpec
+from harmony_cli.scenario.world import PushSpec, WorldSpec
+
+
+class Weights(Strict):
+    position: float = Field(1.0, ge=0, description="hand position tracking, mean over knots [1/m^2]")
+    orientation: float = Field(1.0, ge=0, description="hand rotation-matrix error ||R - R_ref||_F^2, mean over knots")
+    chest_yaw: float = Field(10.0, ge=0)
+    arm_symmetry: float = Field(0.1, ge=0, description="(LARM_JOINT0 + RARM_JOINT0)^2")
+    posture: float = Field(0.001, ge=0, description="arm joints away from home")
+    velocity: float = Field(0.01, ge=0, description="joint velocity at the knots")
+    clearance: float = Field(1.0e4, ge=0, description="squared clearance violation (mpc.clearance: soft only)")
+    acceleration: float = Field(0.001, ge=0, description="joint acceleration at the knots")
+
+
+class MpcSpec(Strict):
+    transcription: Literal["bezier", "traditional"] = "bezier"
+    integration: Literal["euler", "trapezoidal"] = Field("euler", description="traditional transcription only")
+    horizon: PositiveFloat = Field(5.0, description="prediction horizon T [s]")
+    knots: int = Field(26, ge=2, description="time knots K where the cost is evaluated (independent of N)")
+    control_points: int = Field(6, ge=2, description="Bezier control points N (bezier only)")
+    clearance: Literal["hard", "soft"] = Field(
+        "hard", description="obstacle clearance of the base footprint and hands: constraint rows at knots k >= 1 "
+                            "(hard) or a squared-hinge cost weighted by weights.clearance (soft)")
+    weights: Weights = Weights()
+
+
+class PlannerWeights(Strict):
+    smoothness: float = Field(0.05, ge=0, description="first differences of the control points")
+    acceleration: float = Field(0.02, ge=0, description="second differences of the control points")
+    level: float = Field(1.0, ge=0, description="both hands at one height, at every control point")
+    facing: float = Field(3.0, ge=0, description="inter-hand vector across the heading (pads face each other)")
+    width: float = Field(3.0, ge=0, description="distance between the hands stays the goal's (grip width)")
+
+
+class PlannerSpec(Strict):
+    """Task-space planner (MPC-T) for both hands; see planner.py."""
+
+    control_points: int = Field(11, ge=6, description="Bezier control points M per curve")
+    min_horizon: PositiveFloat = Field(1.0, description="lower clamp of the remaining phase time [s]")
+    max_speed: tuple[float, float, float] = Field((0.9, 0.9, 0.5), description="hand speed bound x, y, z [m/s]")
+    max_acceleration: tuple[float, float, float] = Field((1.0, 1.0, 1.0), description="[m/s^2]")
+    max_yaw_rate: PositiveFloat = Field(0.8, description="heading rate bound [rad/s]")
+    max_yaw_acceleration: PositiveFloat = Field(1.5, description="[rad/s^2]")
+    samples: int = Field(20, ge=2, description="sample times for clearance and facing")
+    hand_radius: float = Field(0.08, ge=0, description="added to every obstacle margin for a hand centre [m]")
+    period: int = Field(1, ge=1, description="re-plan every `period` control steps")
+    start_velocity: Literal["plan", "measured"] = Field(
+        "plan", description="initial hand velocity of each re-plan (the pose is always the measured one): the "
+                            "previous plan's, or the measured one (restarts from rest when the robot lags)")
+    iterations: int = Field(1, ge=1, description="SQP iterations per re-plan (1: real-time iteration)")
+    phase_iterations: int = Field(10, ge=1, description="SQP iterations at the start of a phase")
+    tol: PositiveFloat = Field(1e-5, description="SQP step tolerance [m]")
+    qp: QpName = "daqp"
+    weights: PlannerWeights = PlannerWeights()
+
+
+class AdmittanceSpec(Strict):
+    """Compliance along each pad's normal inside the whole-body MPC (formulation.md section 3): per hand a compliant
+    offset dp (Bezier control points, or values at the knots) with F_meas + m dp'' + D dp' + K dp -> F_ref."""
+
+    enabled: bool = False
+    mass: PositiveFloat = Field(0.3113, description="m [kg]")
+    stiffness: PositiveFloat = Field(1500.0, description="K [N/m]")
+    damping: PositiveFloat | None = Field(None, description="D [N s/m]; null: critical, 2 sqrt(m K)")
+    weight: float = Field(0.1, ge=0, description="admittance cost ||F_hat - F_ref||^2 [1/N^2], mean over knots")
+    ramp: PositiveFloat = Field(1.0, description="quintic blend of the force reference at a phase start [s]")
+    off_squeeze: float | None = Field(
+        None, ge=0, description="enabled: false only: the position squeeze per pad [m] that stands in for a phase's "
+                          "force; null: F / K, the admittance's free-space offset")
+    force_filter: float = Field(
+        0.05, ge=0, description="time constant [s] of the first-order low-pass on the sensed force the admittance "
+                                "sees; 0: raw. Without it the loop chatters at half the control rate against stiff "
+                                "contact (the offset is a static map of the force, loop gain k_contact / K > 1)")
+    max_offset: PositiveFloat = Field(0.05, description="bound on the compliant offset [m]")
+    max_offset_rate: PositiveFloat = Field(0.5, description="bound on its rate [m/s]")
+
+    @property
+    def damping_value(self) -> float:
+        return self.damping if self.damping is not None else 2.0 * math.sqrt(self.mass * self.stiffness)
+
+
+class SolverSpec(Strict):
+    name: str = Field("ipopt", description=f"{' | '.join(HARMONY_SOLVERS)} | any CasADi nlpsol plugin that loads "
+                                           f"here (ipopt, sqpmethod, blocksqp, fatrop, knitro with its licence, ...)")
+    qp: Literal["auto"] | QpName = Field(
+        "auto", description="QP solver of gauss_newton and rti; auto: daqp up to 300 variables, else osqp (rti) "
+                            "or proxqp (gauss_newton)")
+    hessian: Literal["exact", "gauss_newton"] = Field(
+        "exact", description="NLP plugins: exact Hessian, or the Gauss-Newton one (both on the knot structure)")
+    max_iter: int = Field(30, ge=1, description="Gauss-Newton SQP iterations per solve (rti: always 1)")
+    tol: PositiveFloat = Field(1e-6, description="Gauss-Newton SQP step tolerance")
+    options: dict[str, Any] = Field(default_factory=dict, description="passed to the CasADi plugin")
+
+
+class SimSpec(Strict):
+    physics_dt: PositiveFloat = Field(0.004, description="PyBullet step [s]")
+    control_dt: PositiveFloat = Field(0.02, description="MPC period [s]; a whole multiple of physics_dt")
+    duration: PositiveFloat = Field(26.0, description="closed-loop run length [s]")
+    position_gain: float = Field(0.5, gt=0, le=1, description="PyBullet position-control gain of chest/arms/head")
+    velocity_gain: float = Field(1.0, gt=0, description="PyBullet velocity gain of chest/arms/head")
+    pad_stiffness: PositiveFloat | None = Field(
+        None, description="contact stiffness of the tools below the wrist sensors [N/m] (a rubber pad); null: rigid")
+    pad_damping: PositiveFloat = Field(100.0, description="contact damping of the pads when pad_stiffness is set "
+                                                           "[N s/m]")
+
+    @field_validator("control_dt")
+    @classmethod
+    def _control_is_whole_multiple(cls, control_dt: float, info: ValidationInfo) -> float:
+        physics_dt = info.data.get("physics_dt")
+        if physics_dt is None:
+            return control_dt
+        ratio = control_dt / physics_dt
+        if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            raise ValueError(f"not a whole multiple of sim.physics_dt {physics_dt} (ratio {ratio:.4g}); valid: "
+                             f"k x physics_dt, e.g. {round(max(1, ratio)) * physics_dt:.6g}, or set physics_dt "
+                             f"{control_dt / max(1, round(ratio)):.6g}")
+        return control_dt
+
+    @property
+    def substeps(self) -> int:
+        return round(self.control_dt / self.physics_dt)
+
+
+class Scenario(Strict):
+    name: str
+    description: str = ""
+    seed: int = 0
+    robot: RobotSpec = Field(default_factory=RobotSpec, description="default: the EVA profile")
+    reference: Reference | None = None
+    task: TaskSpec | None = None
+    world: WorldSpec = WorldSpec()
+    planner: PlannerSpec = PlannerSpec()
+    mpc: MpcSpec = MpcSpec()
+    admittance: AdmittanceSpec = AdmittanceSpec()
+    solver: SolverSpec = SolverSpec()
+    sim: SimSpec = SimSpec()
+    pushes: list[PushSpec] = Field([], description="scripted external forces (see PushSpec)")

@@ -1,0 +1,158 @@
+"""PyBullet world (own DIRECT client): the robot from the same URDF, commanded like the real one."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet
+from pybullet_utils.bullet_client import BulletClient
+
+from harmony_cli.robot.model import Robot
+from harmony_cli.robot.observation import Observation
+from harmony_cli.sim.pushes import Pushes
+from harmony_cli.sim.world import World
+from harmony_cli.sim.wrench import WristSensors
+
+
+@dataclass(frozen=True)
+class Truth:
+    """Ground truth the controllers never see, for the logs: the box, contacts, pushes, obstacles, clearances."""
+
+    box_position: np.ndarray | None  # centre [m] (None: no box)
+    box_z_axis: np.ndarray | None  # its z axis in the world (upright: ~ (0, 0, 1))
+    box_touches_robot: bool
+    pad_contact_N: np.ndarray | None  # per hand, the box's contact normal force on the links below its wrist sensor
+    push_N: dict[str, float]  # push_<name>_N, the force acting over the coming physics steps
+    obstacle_positions: dict[str, np.ndarray]  # moving obstacles' centres as PyBullet has them
+    clearance_robot_m: dict[str, float]  # per obstacle, the robot's true distance (PyBullet closest points)
+    clearance_box_m: dict[str, float]  # per obstacle, the box's
+
+
+@contextlib.contextmanager
+def _silenced_stdout():
+    """PyBullet prints 'argv[0]=' from C on connect; keep the CLI's stdout clean."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    with open(os.devnull, "w") as null:
+        os.dup2(null.fileno(), 1)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 1)
+            os.close(saved)
+
+
+class Simulation:
+    """Base through its virtual planar joints (velocity), every other joint by position + velocity targets."""
+
+    def __init__(self, robot: Robot, sim_spec, world=None, pushes=()):
+        self.robot, self.spec = robot, sim_spec
+        with _silenced_stdout():
+            self.client = BulletClient(connection_mode=pybullet.DIRECT)
+        self.client.setGravity(0, 0, -9.81)
+        self.client.setPhysicsEngineParameter(fixedTimeStep=sim_spec.physics_dt, deterministicOverlappingPairs=1)
+        ground = self.client.createCollisionShape(pybullet.GEOM_PLANE)
+        self.client.createMultiBody(0, ground)
+        self.body = self.client.loadURDF(str(robot.urdf), useFixedBase=True,
+                                         flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
+        by_name = {}
+        for i in range(self.client.getNumJoints(self.body)):
+            info = self.client.getJointInfo(self.body, i)
+            by_name[info[1].decode()] = i
+            if info[12].decode() in robot.end_effectors:
+                by_name[info[12].decode()] = i  # link index == index of its parent joint
+        self.joints = [by_name[j] for j in robot.joint_names]
+        self.effort = np.array([self.client.getJointInfo(self.body, j)[10] for j in self.joints])
+        self.hand_links = [by_name[link] for link in robot.end_effectors]
+        self.base = list(robot.base_joints)
+        self.others = [i for i in range(robot.n_dof) if i not in robot.base_joints]
+        for i, j in enumerate(self.joints):
+            self.client.resetJointState(self.body, j, robot.home[i], 0.0)
+        for link in range(-1, self.client.getNumJoints(self.body)):  # Bullet multiplies the two bodies' values
+            self.client.changeDynamics(self.body, link, lateralFriction=1.0, spinningFriction=1.0)
+        self.wrists = WristSensors(self.client, self.body, [by_name[j] for j in robot.wrist_sensors], self.hand_links)
+        if sim_spec.pad_stiffness is not None:  # compliant pads: what the force loop presses against is not rigid
+            for link in {link for tool in self.wrists.tools for link in tool}:
+                self.client.changeDynamics(self.body, link, contactStiffness=sim_spec.pad_stiffness,
+                                           contactDamping=sim_spec.pad_damping)
+        self.world = World(self.client, world) if world is not None else None
+        base_link = self.joints[robot.base_joints[2]]  # the link the base yaw joint moves
+        self.pushes = Pushes(self.client, pushes, self.body, base_link, self.world, sim_spec.physics_dt)
+        self.physics_steps = 0
+
+    def observe(self) -> Observation:
+        """What the controllers see: joints, hand frames, wrist wrenches and the box's pose."""
+        states = self.client.getJointStates(self.body, self.joints)
+        links = self.client.getLinkStates(self.body, self.hand_links, computeForwardKinematics=True,
+                                          computeLinkVelocity=True)
+        box = self.world.box_pose() if self.world is not None and self.world.box is not None else None
+        return Observation(
+            q=np.array([s[0] for s in states]), qd=np.array([s[1] for s in states]),
+            hand_positions=np.array([link[4] for link in links]),
+            hand_rotations=np.array([np.reshape(self.client.getMatrixFromQuaternion(link[5]), (3, 3))
+                                     for link in links]),
+            hand_velocities=np.array([link[6] for link in links]),
+            heading_rate=float(np.mean([link[7][2] for link in links])),
+            wrenches=self.wrists.read(),
+            box_position=None if box is None else box[0], box_yaw=0.0 if box is None else box[1])
+
+    def truth(self) -> Truth:
+        """Ground truth for the logs (never for the controllers)."""
+        world = self.world
+        box = world is not None and world.box is not None
+        centre, z_axis = world.box_state() if box else (None, None)
+        touching = box and world.touching(world.box, self.body)
+        contact = self.pad_contact_forces() if box else None
+        positions, robot, carried = {}, {}, {}
+        if world is not None:
+            positions = {name: world.obstacle_position(name) for name in world.moving}
+            for name in world.obstacles:
+                robot[name] = world.clearance(self.body, name)
+                if box:
+                    carried[name] = world.clearance(world.box, name)
+        return Truth(box_position=centre, box_z_axis=z_axis, box_touches_robot=bool(touching), pad_contact_N=contact,
+                     push_N=self.pushes.magnitudes(self.time), obstacle_positions=positions, clearance_robot_m=robot,
+                     clearance_box_m=carried)
+
+    def apply(self, q_target: np.ndarray, qd_target: np.ndarray) -> None:
+        base = [self.joints[i] for i in self.base]
+        self.client.setJointMotorControlArray(self.body, base, pybullet.VELOCITY_CONTROL,
+                                              targetVelocities=qd_target[self.base], forces=self.effort[self.base])
+        others = [self.joints[i] for i in self.others]
+        n = len(others)
+        self.client.setJointMotorControlArray(
+            self.body, others, pybullet.POSITION_CONTROL, targetPositions=q_target[self.others],
+            targetVelocities=qd_target[self.others], forces=self.effort[self.others],
+            positionGains=[self.spec.position_gain] * n, velocityGains=[self.spec.velocity_gain] * n)
+
+    def step(self, substeps: int) -> None:
+        for _ in range(substeps):
+            self.pushes.apply(self.physics_steps * self.spec.physics_dt)
+            self.wrists.before_physics_step()
+            self.client.stepSimulation()
+            self.physics_steps += 1
+            if self.world is not None:
+                self.world.move_obstacles(self.time)
+
+    @property
+    def time(self) -> float:
+        return self.physics_steps * self.spec.physics_dt
+
+    def pad_contact_forces(self) -> np.ndarray:
+        """Per hand, the summed contact normal force between the box and the links below its wrist sensor [N]
+        (PyBullet's contact solution of the last physics step; zeros without a box)."""
+        forces = np.zeros(len(self.hand_links))
+        if self.world is None or self.world.box is None:
+            return forces
+        for point in self.client.getContactPoints(bodyA=self.world.box, bodyB=self.body):
+            for h, tool in enumerate(self.wrists.tools):
+                if point[4] in tool:
+                    forces[h] += point[9]
+        return forces
+
+    def close(self) -> None:
+        self.client.disconnect()

@@ -1,0 +1,97 @@
+"""The scene of a scenario as PyBullet bodies: tables, the box and obstacles, and the true clearances PyBullet
+measures (closest points).
+
+A moving obstacle is a static (massless) body put where its motion says after every physics step: kinematic,
+nothing pushes it, and closest points are measured at its true position. It has no velocity in Bullet, so a
+contact would be resolved by penetration recovery alone (the runs require clearance > 0: no contact)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pybullet
+
+from harmony_cli.maths.shapes import table_legs
+from harmony_cli.tasks.motion import centre_at
+
+FAR = 5.0  # [m] clearances beyond this are reported as FAR (PyBullet only searches this far)
+
+
+def _quaternion(yaw_deg: float) -> list[float]:
+    return list(pybullet.getQuaternionFromEuler([0.0, 0.0, np.deg2rad(yaw_deg)]))
+
+
+class World:
+    """Static tables, static or kinematic obstacles, and the box as a free body (held only by friction when
+    carried)."""
+
+    def __init__(self, client, spec):
+        self.client, self.spec = client, spec
+        self.tables = {t.name: self._table(t) for t in spec.tables}
+        self.obstacles = {o.name: self._obstacle(o) for o in spec.obstacles}
+        self.moving = {o.name: o for o in spec.obstacles if o.motion is not None}
+        self.move_obstacles(0.0)
+        self.box = None
+        if spec.box is not None:
+            b = spec.box
+            shape = client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=np.asarray(b.size) / 2)
+            visual = client.createVisualShape(pybullet.GEOM_BOX, halfExtents=np.asarray(b.size) / 2,
+                                              rgbaColor=[0.85, 0.6, 0.3, 1])
+            self.box = client.createMultiBody(b.mass, shape, visual, b.position, _quaternion(b.yaw_deg))
+            client.changeDynamics(self.box, -1, lateralFriction=b.friction, spinningFriction=b.spinning_friction)
+
+    def _table(self, t) -> list[int]:
+        c = self.client
+        top_half = [t.top[0] / 2, t.top[1] / 2, t.thickness / 2]
+        colour = [0.55, 0.45, 0.35, 1]
+        top = c.createMultiBody(0, c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=top_half),
+                                c.createVisualShape(pybullet.GEOM_BOX, halfExtents=top_half, rgbaColor=colour),
+                                [*t.position, t.height - t.thickness / 2], _quaternion(t.yaw_deg))
+        c.changeDynamics(top, -1, lateralFriction=t.friction)
+        bodies = [top]
+        for leg in table_legs(t):
+            bodies.append(c.createMultiBody(
+                0, c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=leg.half),
+                c.createVisualShape(pybullet.GEOM_BOX, halfExtents=leg.half, rgbaColor=colour),
+                leg.centre, _quaternion(t.yaw_deg)))
+        return bodies
+
+    def _obstacle(self, o) -> int:
+        c, half, colour = self.client, np.asarray(o.size) / 2, [0.7, 0.2, 0.2, 1]
+        if o.shape == "box":
+            col = c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half)
+            vis = c.createVisualShape(pybullet.GEOM_BOX, halfExtents=half, rgbaColor=colour)
+        elif o.shape == "cylinder":
+            col = c.createCollisionShape(pybullet.GEOM_CYLINDER, radius=half[0], height=o.size[2])
+            vis = c.createVisualShape(pybullet.GEOM_CYLINDER, radius=half[0], length=o.size[2], rgbaColor=colour)
+        else:
+            col = c.createCollisionShape(pybullet.GEOM_SPHERE, radius=half[0])
+            vis = c.createVisualShape(pybullet.GEOM_SPHERE, radius=half[0], rgbaColor=colour)
+        return c.createMultiBody(0, col, vis, o.position, _quaternion(o.yaw_deg))
+
+    def move_obstacles(self, t: float) -> None:
+        """Every moving obstacle to where its motion says at time t."""
+        for name, o in self.moving.items():
+            self.client.resetBasePositionAndOrientation(self.obstacles[name], centre_at(o, t)[0].tolist(),
+                                                        _quaternion(o.yaw_deg))
+
+    def obstacle_position(self, name: str) -> np.ndarray:
+        """An obstacle's centre as PyBullet has it."""
+        return np.array(self.client.getBasePositionAndOrientation(self.obstacles[name])[0])
+
+    def box_pose(self) -> tuple[np.ndarray, float]:
+        """The box's centre and yaw."""
+        position, orientation = self.client.getBasePositionAndOrientation(self.box)
+        return np.array(position), pybullet.getEulerFromQuaternion(orientation)[2]
+
+    def box_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Box centre and its z axis in the world (upright: z axis ~ (0, 0, 1))."""
+        position, orientation = self.client.getBasePositionAndOrientation(self.box)
+        return np.array(position), np.reshape(pybullet.getMatrixFromQuaternion(orientation), (3, 3))[:, 2]
+
+    def touching(self, body: int, other: int) -> bool:
+        return len(self.client.getContactPoints(bodyA=body, bodyB=other)) > 0
+
+    def clearance(self, body: int, obstacle: str) -> float:
+        """Smallest distance between any part of `body` and an obstacle (negative: penetration), up to FAR."""
+        points = self.client.getClosestPoints(body, self.obstacles[obstacle], FAR)
+        return min((p[8] for p in points), default=FAR)

@@ -1,0 +1,85 @@
+"""The phase schedule: which phase runs at time t, and its hand goals (fixed when the phase starts)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from harmony_cli.maths.scalings import quintic
+from harmony_cli.scenario.models import AdmittanceSpec
+from harmony_cli.scenario.task import PhaseSpec, RelativeTarget, TaskSpec
+
+
+@dataclass(frozen=True)
+class ActivePhase:
+    index: int
+    spec: PhaseSpec
+    start: float
+    end: float
+
+
+class Schedule:
+    """Phases back to back from t = 0; after the last phase its goal is held. Squeeze forces go to the admittance
+    (blended in over `admittance.ramp` at a phase start) or, without it, become a position squeeze F / K per pad."""
+
+    def __init__(self, task: TaskSpec, hand_names: tuple[str, ...], admittance: AdmittanceSpec | None = None):
+        self.phases, self.hand_names = task.phases, hand_names
+        self.ends = np.cumsum([p.duration for p in task.phases])
+        self.duration = float(self.ends[-1])
+        self.admittance = admittance if admittance is not None else AdmittanceSpec()
+
+    def force(self, times: np.ndarray) -> np.ndarray:
+        """Squeeze force reference per pad [N] at each time (0 without admittance)."""
+        if not self.admittance.enabled:
+            return np.zeros(np.size(times))
+        target = np.array([p.force for p in self.phases])
+        i = np.minimum(np.searchsorted(self.ends, times, side="right"), len(self.phases) - 1)
+        start = np.r_[0.0, self.ends[:-1]][i]
+        before = np.r_[0.0, target[:-1]][i]
+        return before + (target[i] - before) * quintic((np.asarray(times) - start) / self.admittance.ramp)
+
+    def squeeze(self, phase: PhaseSpec) -> float:
+        """Total position squeeze [m]: the phase's own, plus, when no admittance loop controls the force, 2 F / K
+        (or twice `admittance.off_squeeze` for phases with a force)."""
+        a = self.admittance
+        if a.enabled or not phase.force:
+            return phase.squeeze
+        return phase.squeeze + 2 * (a.off_squeeze if a.off_squeeze is not None else phase.force / a.stiffness)
+
+    def at(self, t: float) -> ActivePhase:
+        i = min(int(np.searchsorted(self.ends, t, side="right")), len(self.phases) - 1)
+        start = float(self.ends[i - 1]) if i else 0.0
+        return ActivePhase(i, self.phases[i], start, float(self.ends[i]))
+
+    def goal(self, phase: PhaseSpec, hands_now: np.ndarray, poses: dict[str, tuple[np.ndarray, float]]) -> np.ndarray:
+        """Hand goals (hands, 3): absolute, relative to an object's pose (position, yaw) or where the hand is;
+        then `squeeze` moves them towards each other by that much in total."""
+        goal = hands_now.copy()
+        for h, name in enumerate(self.hand_names):
+            target = phase.hands[name]
+            if isinstance(target, RelativeTarget):
+                position, yaw = poses[target.relative_to]
+                c, s = np.cos(yaw), np.sin(yaw)
+                ox, oy, oz = target.offset
+                goal[h] = position + np.array([c * ox - s * oy, s * ox + c * oy, oz])
+            elif target is not None:
+                goal[h] = target
+        squeeze = self.squeeze(phase)
+        if squeeze and len(goal) == 2:
+            across = goal[1] - goal[0]
+            across /= max(np.linalg.norm(across), 1e-9)
+            goal[0] += 0.5 * squeeze * across
+            goal[1] -= 0.5 * squeeze * across
+        return goal
+
+    def holding(self, t: float) -> bool:
+        """The box is held from the end of a grasp phase until a release phase starts."""
+        held = False
+        for phase, end in zip(self.phases, self.ends):
+            start = end - phase.duration
+            if phase.release and t >= start:
+                held = False
+            if phase.grasp and t >= end:
+                held = True
+        return held

@@ -1,0 +1,23 @@
+"""What a reference source hands the whole-body MPC each control step."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from harmony_cli.robot.observation import Observation
+
+
+@dataclass(frozen=True)
+class HandTargets:
+    positions: np.ndarray  # (K, hands, 3) hand positions at t + the MPC's knot times
+    rotations: np.ndarray  # (K, hands, 3, 3)
+    now: np.ndarray  # (hands, 3) where the hands are asked to be at t (what tracking errors are measured from)
+    force_ref: np.ndarray | None = None  # (hands, K) squeeze force references [N] when the admittance is on
+    log: dict = field(default_factory=dict)  # fields for the step record (phase, planner status and timing)
+
+
+class References(Protocol):
+    def __call__(self, t: float, obs: Observation, knot_times: np.ndarray) -> HandTargets: ...

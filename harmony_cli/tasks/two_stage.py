@@ -1,0 +1,80 @@
+"""The first of the two MPCs in series: phase schedule -> task-space planner -> hand references at the whole-body
+MPC's knots. It sees only the observation (hands, box pose) and the scenario's static scene."""
+
+from __future__ import annotations
+
+from functools import partial
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from harmony_cli.maths.rotations import heading_of
+from harmony_cli.maths.shapes import obstacle_shape, table_top_pose
+from harmony_cli.mpc.planner import HandState, Obstacle, PlannerResult, TaskPlanner
+from harmony_cli.robot.model import Robot
+from harmony_cli.robot.observation import Observation
+from harmony_cli.tasks.motion import centre_at
+from harmony_cli.tasks.schedule import ActivePhase, Schedule
+from harmony_cli.tasks.targets import HandTargets
+
+if TYPE_CHECKING:
+    from harmony_cli.scenario.models import Scenario
+
+
+class TaskReferences:
+    """Re-plans every `planner.period` control steps and samples the plan at t + knot times."""
+
+    def __init__(self, robot: Robot, scenario: Scenario):
+        self.scenario = scenario
+        self.schedule = Schedule(scenario.task, robot.hand_names, scenario.admittance)
+        poses = robot.hand_poses_numeric(robot.home)
+        self.home_rotations = np.array([r for _, r in poses])
+        p0, p1 = (p.ravel() for p, _ in poses)
+        offset = -np.arctan2(p1[1] - p0[1], p1[0] - p0[0])  # home heading is 0 (base yaw 0 at home)
+        obstacles = [Obstacle(obstacle_shape(o), o.margin + scenario.planner.hand_radius,
+                              partial(centre_at, o) if o.motion is not None else None)  # the true motion predicts
+                     for o in scenario.world.obstacles]
+        self.planner = TaskPlanner(scenario.planner, obstacles, self.home_rotations, offset)
+        self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
+        box = scenario.world.box
+        self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
+        self.box_drop: float | None = None  # the box's bottom below the hands' midpoint, measured at the grasp
+        self.phase: ActivePhase | None = None
+        self.goal = np.zeros(0)  # hand goals of the current phase (hands, 3)
+        self.result: PlannerResult | None = None
+        self.step_count = 0
+
+    def __call__(self, t: float, obs: Observation, knot_times: np.ndarray) -> HandTargets:
+        active = self.schedule.at(t)
+        if self.phase is None or active.index != self.phase.index:
+            poses = dict(self.table_poses)
+            if obs.box_position is not None:
+                poses["box"] = (obs.box_position, obs.box_yaw)
+            self.phase, self.goal = active, self.schedule.goal(active.spec, obs.hand_positions, poses)
+        holding = self.schedule.holding(t)
+        log = {"phase": active.spec.name, "phase_index": active.index, "holding": holding}
+        # what the hands were asked to be at now (the plan restarts from the measurement)
+        now = None if self.result is None else self.result.plan.sample(np.array([t]))[0][0]
+        if self.step_count % self.scenario.planner.period == 0 or self.result is None:
+            log |= self._replan(t, obs, active, holding)
+        self.step_count += 1
+        positions, rotations = self.result.plan.sample(t + knot_times)
+        force_ref = None
+        if self.schedule.admittance.enabled:
+            force_ref = np.tile(self.schedule.force(t + knot_times), (len(self.schedule.hand_names), 1))
+        return HandTargets(positions, rotations, positions[0] if now is None else now, force_ref, log)
+
+    def _replan(self, t: float, obs: Observation, active: ActivePhase, holding: bool) -> dict:
+        heading = heading_of(obs.hand_rotations, self.home_rotations)
+        if self.scenario.planner.start_velocity == "plan" and self.result is not None:
+            rates = self.result.plan.rates(t)  # measured pose, the plan's own velocity: no restart at rest
+            state = HandState(obs.hand_positions, rates[:6].reshape(2, 3), heading, rates[6])
+        else:
+            state = HandState(obs.hand_positions, obs.hand_velocities, heading, obs.heading_rate)
+        if holding and self.box_drop is None:
+            self.box_drop = obs.hand_positions[:, 2].mean() - (obs.box_position[2] - self.scenario.world.box.size[2] / 2)
+        self.result = self.planner.step(t, state, self.goal, active.end, active.index,
+                                        self.box_radius if holding else None, self.box_drop or 0.0)
+        return {"planner_ms": 1e3 * self.result.solve_time, "planner_status": self.result.status,
+                "planner_success": self.result.success, "planner_iterations": self.result.iterations,
+                "planner_clearance_m": self.result.min_clearance}
