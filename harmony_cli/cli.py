@@ -4,15 +4,17 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import List, Optional
 
 import typer
 from rich.console import Console
 
 from harmony_cli.scenario import Scenario, ScenarioError, load_scenario
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
-                  help="Whole-body Bezier MPC experiments for dual-arm mobile manipulators, from YAML.")
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    help="Whole-body Bezier MPC experiments for dual-arm mobile manipulators, from YAML.",
+)
 err = Console(stderr=True)
 
 SET_HELP = "Override a scenario field, e.g. --set mpc.knots=6 (repeatable)."
@@ -24,14 +26,20 @@ def _fail(message: str) -> None:
 
 
 @app.command()
-def run(scenario: Path, set: List[str] = typer.Option([], "--set", help=SET_HELP),
-        out: Optional[Path] = typer.Option(None, help="Run directory (default results/runs/<name>-<time>)"),
-        quiet: bool = typer.Option(False, help="No progress bar"),
-        video: bool = typer.Option(False, "--video", help="Also record video.mp4 in the run directory (headless)"),
-        video_path: Optional[Path] = typer.Option(None, "--video-file", help="Record to this .mp4 or .gif instead"),
-        twin: bool = typer.Option(True, "--push-free-twin/--no-push-free-twin",
-                                  help="With pushes: first run the scenario without them (into <out>/push_free) and "
-                                       "measure push displacements from it")):
+def run(
+    scenario: Path,
+    set: list[str] = typer.Option([], "--set", help=SET_HELP),
+    out: Path | None = typer.Option(None, help="Run directory (default results/runs/<name>-<time>)"),
+    quiet: bool = typer.Option(False, help="No progress bar"),
+    video: bool = typer.Option(False, "--video", help="Also record video.mp4 in the run directory (headless)"),
+    video_path: Path | None = typer.Option(None, "--video-file", help="Record to this .mp4 or .gif instead"),
+    twin: bool = typer.Option(
+        True,
+        "--push-free-twin/--no-push-free-twin",
+        help="With pushes: first run the scenario without them (into <out>/push_free) and "
+        "measure push displacements from it",
+    ),
+):
     """Run one scenario closed loop in PyBullet and write a run directory."""
     from harmony_cli.experiment.pipeline import RunFailed
     from harmony_cli.experiment.run import run_scenario
@@ -53,12 +61,15 @@ def run(scenario: Path, set: List[str] = typer.Option([], "--set", help=SET_HELP
 
 
 @app.command()
-def compare(scenario: Path, grid: List[str] = typer.Option(..., "--grid", help="key=v1,v2 (repeatable)"),
-            set: List[str] = typer.Option([], "--set", help=SET_HELP),
-            jobs: int = typer.Option(1, help="Runs at once (solve times are only comparable at 1)"),
-            out: Optional[Path] = typer.Option(None, help="Output directory (default results/compare/<name>)"),
-            name: str = typer.Option("table", help="Table file name stem"),
-            main_solver: Optional[str] = typer.Option(None, help="Solver of the main table (default: first)")):
+def compare(
+    scenario: Path,
+    grid: list[str] = typer.Option(..., "--grid", help="key=v1,v2 (repeatable)"),
+    set: list[str] = typer.Option([], "--set", help=SET_HELP),
+    jobs: int = typer.Option(1, help="Runs at once (solve times are only comparable at 1)"),
+    out: Path | None = typer.Option(None, help="Output directory (default results/compare/<name>)"),
+    name: str = typer.Option("table", help="Table file name stem"),
+    main_solver: str | None = typer.Option(None, help="Solver of the main table (default: first)"),
+):
     """Run an ablation grid and write Table-1 style tables (md, csv, tex) and Fig. 4 plots."""
     from harmony_cli.experiment.sweep import expand_grid, run_grid
     from harmony_cli.report.tables import compare_report
@@ -77,7 +88,7 @@ def compare(scenario: Path, grid: List[str] = typer.Option(..., "--grid", help="
 
 
 @app.command()
-def validate(files: List[Path]):
+def validate(files: list[Path]):
     """Validate scenario files; one line per bad file, exit code 2 if any is bad."""
     bad = 0
     for f in files:
@@ -98,8 +109,11 @@ def schema():
 
 
 @app.command()
-def experiments(runs: List[Path] = typer.Argument(..., help="Run directories of task scenarios"),
-                out: Path = typer.Option(Path("results/paper")), name: str = typer.Option("experiments")):
+def experiments(
+    runs: list[Path] = typer.Argument(..., help="Run directories of task scenarios"),
+    out: Path = typer.Option(Path("results/paper")),
+    name: str = typer.Option("experiments"),
+):
     """Results table (md, csv) of two-stage task runs, with their top-down plots and a video frame each."""
     from harmony_cli.report.experiments import experiments_report
 
@@ -111,13 +125,15 @@ def experiments(runs: List[Path] = typer.Argument(..., help="Run directories of 
 
 
 @app.command()
-def paths(runs: List[Path] = typer.Argument(..., help="Run directories of one scene (e.g. with and without motion)"),
-          out: Path = typer.Option(..., help="Image file (.png)"),
-          title: str = typer.Option("", help="Figure title (default: the first run's scenario name)")):
+def paths(
+    runs: list[Path] = typer.Argument(..., help="Run directories of one scene (e.g. with and without motion)"),
+    out: Path = typer.Option(..., help="Image file (.png)"),
+    title: str = typer.Option("", help="Figure title (default: the first run's scenario name)"),
+):
     """Top-down paths of several runs of one scene overlaid: base, hands, box and each run's moving obstacles."""
     import pandas as pd
 
-    from harmony_cli.report.plots import plot_paths_compared
+    from harmony_cli.report.scene_plots import plot_paths_compared
 
     missing = [str(r) for r in runs if not (r / "steps.csv").exists()]
     if missing:
@@ -131,13 +147,18 @@ def paths(runs: List[Path] = typer.Argument(..., help="Run directories of one sc
 
 
 @app.command()
-def bench(scenario: Path = typer.Option(Path("scenarios/paper/table1_s_shape.yaml")),
-          knots: List[int] = typer.Option([6, 26]), solver: List[str] = typer.Option(["ipopt", "gauss_newton", "rti"]),
-          steps: int = typer.Option(250, help="Control steps per configuration"),
-          start: float = typer.Option(8.0, help="Reference time of the first step [s]"),
-          out: Optional[Path] = typer.Option(Path("results/bench/bench.json")),
-          loop: Optional[Path] = typer.Option(Path("scenarios/paper/pick_and_carry.yaml"),
-                                              help="Two-stage task scenario whose full loop is timed ('' to skip)")):
+def bench(
+    scenario: Path = typer.Option(Path("scenarios/paper/table1_s_shape.yaml")),
+    knots: list[int] = typer.Option([6, 26]),
+    solver: list[str] = typer.Option(["ipopt", "gauss_newton", "rti"]),
+    steps: int = typer.Option(250, help="Control steps per configuration"),
+    start: float = typer.Option(8.0, help="Reference time of the first step [s]"),
+    out: Path | None = typer.Option(Path("results/bench/bench.json")),
+    loop: Path | None = typer.Option(
+        Path("scenarios/paper/pick_and_carry.yaml"),
+        help="Two-stage task scenario whose full loop is timed ('' to skip)",
+    ),
+):
     """Whole-body MPC solve time: both transcriptions x K x solver modes, side by side, with ratios; then the
     full loop (planner + whole-body MPC) of a task scenario, closed loop in PyBullet."""
     from harmony_cli.experiment.bench import run_bench, run_loop_bench

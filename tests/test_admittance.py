@@ -3,16 +3,15 @@ the quintic force ramp, and the force loop closed in PyBullet."""
 
 import numpy as np
 import pytest
+from conftest import TABLE1
 
+from harmony_cli.maths.scalings import quintic
 from harmony_cli.mpc.knot_derivatives import KnotDerivatives
 from harmony_cli.mpc.knot_params import hand_rows
 from harmony_cli.mpc.native_oracle import native_oracle
-from harmony_cli.scenario import AdmittanceSpec, TaskSpec, load_scenario
-from harmony_cli.maths.scalings import quintic
-from harmony_cli.tasks.schedule import Schedule
 from harmony_cli.mpc.wholebody import WholeBodyMPC
-
-from conftest import TABLE1
+from harmony_cli.scenario import AdmittanceSpec, TaskSpec, load_scenario
+from harmony_cli.tasks.schedule import Schedule
 
 ON = "admittance.enabled=true"
 
@@ -33,22 +32,21 @@ def test_one_compliant_offset_per_hand_joins_the_decision_variables(eva, transcr
 
 @pytest.mark.parametrize("transcription", ["bezier", "traditional"])
 def test_quasi_static_offset_is_the_force_error_over_the_stiffness_and_the_hand_follows_it(eva, transcription):
-    scenario = load_scenario(TABLE1, [ON, f"mpc.transcription={transcription}", "mpc.knots=11",
-                                      "solver.name=ipopt"])
+    scenario = load_scenario(TABLE1, [ON, f"mpc.transcription={transcription}", "mpc.knots=11", "solver.name=ipopt"])
     mpc = WholeBodyMPC(eva, scenario, 0.02)
     K, spec = mpc.transcription.n_knots, scenario.admittance
     force_ref, force_meas = np.array([[20.0] * K, [5.0] * K]), np.array([0.0, 8.0])
     _, result = _hold_still(eva, mpc, force_ref, force_meas)
     assert result.success
     q = mpc.transcription.knots(result.x)[0]
-    offsets = q[eva.n_dof:, -1]  # settled by the end of the horizon (critically damped, tau = 14 ms)
+    offsets = q[eva.n_dof :, -1]  # settled by the end of the horizon (critically damped, tau = 14 ms)
     # Euler at 0.5 s knots only approximates the 14 ms dynamics: the least-squares fit settles 2-13 % off
     rtol = 0.02 if transcription == "bezier" else 0.15
     np.testing.assert_allclose(offsets, (force_ref[:, -1] - force_meas) / spec.stiffness, rtol=rtol)
     for h, (home, _) in enumerate(eva.hand_poses_numeric(eva.home)):  # the hand moved along its pad normal
         p, R = eva.hand_poses_numeric(q[: eva.n_dof, -1])[h]
         np.testing.assert_allclose(p.ravel(), home.ravel() + R[:, 2] * offsets[h], atol=1e-3)
-    np.testing.assert_allclose(q[eva.n_dof:, 0], 0.0, atol=1e-12)  # the offsets start at 0 every solve
+    np.testing.assert_allclose(q[eva.n_dof :, 0], 0.0, atol=1e-12)  # the offsets start at 0 every solve
 
 
 @pytest.mark.parametrize("transcription", ["bezier", "traditional"])
@@ -73,14 +71,18 @@ def test_gradient_with_force_parameters_matches_finite_differences_and_the_nativ
 
 def test_force_reference_blends_in_with_a_quintic_ramp_and_without_admittance_becomes_a_squeeze():
     stay = {"left": None, "right": None}
-    task = TaskSpec.model_validate({"phases": [
-        {"name": "close", "duration": 2.0, "hands": stay},
-        {"name": "carry", "duration": 3.0, "hands": stay, "force": 20.0},
-        {"name": "release", "duration": 2.0, "hands": stay}]})
+    task = TaskSpec.model_validate(
+        {
+            "phases": [
+                {"name": "close", "duration": 2.0, "hands": stay},
+                {"name": "carry", "duration": 3.0, "hands": stay, "force": 20.0},
+                {"name": "release", "duration": 2.0, "hands": stay},
+            ]
+        }
+    )
     on = Schedule(task, ("left", "right"), AdmittanceSpec(enabled=True, ramp=1.0))
     times = np.array([0.0, 1.99, 2.0, 2.25, 2.5, 3.0, 4.9, 5.0, 5.5, 6.0, 9.0])
-    expected = np.r_[0, 0, 0, 20 * quintic(np.array([0.25, 0.5])), 20, 20, 20, 20 - 20 * quintic(np.array([0.5])),
-                     0, 0]
+    expected = np.r_[0, 0, 0, 20 * quintic(np.array([0.25, 0.5])), 20, 20, 20, 20 - 20 * quintic(np.array([0.5])), 0, 0]
     np.testing.assert_allclose(on.force(times), expected, atol=1e-12)
     assert quintic(np.array([0.5]))[0] == pytest.approx(0.5)
     off = Schedule(task, ("left", "right"), AdmittanceSpec(enabled=False, stiffness=1500.0))

@@ -155,8 +155,9 @@ def test_shift_by_zero_is_the_identity(n_ctrl):
 
 
 @SETTINGS
-@given(st.integers(2, 10), horizons, arrays(np.float64, (3,), elements=coords),
-       arrays(np.float64, (3,), elements=coords))
+@given(
+    st.integers(2, 10), horizons, arrays(np.float64, (3,), elements=coords), arrays(np.float64, (3,), elements=coords)
+)
 def test_straight_line_has_constant_velocity_on_every_hodograph_point(n_ctrl, T, a, b):
     n = n_ctrl - 1
     X = a[:, None] + b[:, None] * T * np.arange(n_ctrl) / n

@@ -8,9 +8,8 @@ import pybullet
 import pytest
 from pybullet_utils.bullet_client import BulletClient
 
-from harmony_cli.maths.shapes import Shape, symbolic_distance
+from harmony_cli.maths.shapes import Shape, symbolic_distance, table_legs
 from harmony_cli.scenario import TableSpec
-from harmony_cli.maths.shapes import table_legs
 
 SHAPES = {
     "box": Shape("box", np.array([0.3, -0.2, 0.8]), 0.6, np.array([0.4, 0.25, 0.3])),
@@ -34,8 +33,9 @@ def _bullet_body(client, shape: Shape) -> int:
     if shape.kind == "box":
         collision = client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=shape.half.tolist())
     elif shape.kind == "cylinder":
-        collision = client.createCollisionShape(pybullet.GEOM_CYLINDER, radius=float(shape.half[0]),
-                                                height=2 * float(shape.half[2]))
+        collision = client.createCollisionShape(
+            pybullet.GEOM_CYLINDER, radius=float(shape.half[0]), height=2 * float(shape.half[2])
+        )
     else:
         collision = client.createCollisionShape(pybullet.GEOM_SPHERE, radius=float(shape.half[0]))
     orientation = pybullet.getQuaternionFromEuler([0.0, 0.0, shape.yaw])
@@ -56,8 +56,9 @@ def bullet():
 def test_signed_distance_outside_equals_pybullet_closest_point_distance(bullet, kind):
     shape = SHAPES[kind]
     body = _bullet_body(bullet, shape)
-    probe = bullet.createMultiBody(0, bullet.createCollisionShape(pybullet.GEOM_SPHERE, radius=PROBE_RADIUS), -1,
-                                   [50.0, 50.0, 50.0])
+    probe = bullet.createMultiBody(
+        0, bullet.createCollisionShape(pybullet.GEOM_SPHERE, radius=PROBE_RADIUS), -1, [50.0, 50.0, 50.0]
+    )
     points = _points_at_distance(shape, np.random.default_rng(1), 0.05, 1.5, 50)
     measured = []
     for p in points:
@@ -93,8 +94,10 @@ def test_gradient_equals_central_differences_outside_and_inside(rng, kind):
     assert len(inside) > 50
     points = np.vstack([outside, inside])
     _, gradient = shape.distance(points)
-    fd = np.stack([(shape.distance(points + eps * e)[0] - shape.distance(points - eps * e)[0]) / (2 * eps)
-                   for e in np.eye(3)], axis=1)
+    fd = np.stack(
+        [(shape.distance(points + eps * e)[0] - shape.distance(points - eps * e)[0]) / (2 * eps) for e in np.eye(3)],
+        axis=1,
+    )
     np.testing.assert_allclose(gradient, fd, rtol=0, atol=1e-5)
     np.testing.assert_allclose(np.linalg.norm(gradient, axis=1), 1.0, atol=1e-12)
 
@@ -118,8 +121,9 @@ def test_casadi_distance_equals_numpy_distance_inside_and_outside(rng, kind):
     f = _casadi_distance(kind, SHAPES[kind].half)
     for _ in range(5):
         shape = _random_pose(SHAPES[kind], rng)
-        points = np.vstack([_points_at_distance(shape, rng, 1e-3, 1.5, 20),
-                            _points_at_distance(shape, rng, -0.3, -1e-3, 20)])
+        points = np.vstack(
+            [_points_at_distance(shape, rng, 1e-3, 1.5, 20), _points_at_distance(shape, rng, -0.3, -1e-3, 20)]
+        )
         symbolic = np.array([float(f(p, shape.centre, shape.yaw)) for p in points])
         np.testing.assert_allclose(symbolic, shape.distance(points)[0], rtol=0, atol=TOL_SYMBOLIC)
 
@@ -161,8 +165,7 @@ def test_planar_casadi_distance_of_a_flat_shape_is_the_distance_to_its_footprint
 
 @pytest.mark.parametrize("yaw_deg", [0.0, 30.0, 90.0])
 def test_four_table_legs_stand_on_the_floor_under_the_top_inside_its_footprint(yaw_deg):
-    table = TableSpec(name="t", position=(2.3, -1.1), yaw_deg=yaw_deg, top=(1.5, 0.8), height=1.015,
-                      thickness=0.03)
+    table = TableSpec(name="t", position=(2.3, -1.1), yaw_deg=yaw_deg, top=(1.5, 0.8), height=1.015, thickness=0.03)
     legs = table_legs(table)
     assert len(legs) == 4
     yaw = np.deg2rad(yaw_deg)

@@ -2,23 +2,25 @@
 their own times, the logged track and the summary."""
 
 import json
+import shutil
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 import pybullet
 import pytest
+from conftest import ROOT, TABLE1, assert_rejected
+from matplotlib.colors import to_rgb
 from typer.testing import CliRunner
 
-from harmony_cli.mpc import wholebody
 from harmony_cli.cli import app
-from harmony_cli.maths.shapes import Shape
-from harmony_cli.tasks.motion import centre_at, obstacle_predictor
-from harmony_cli.mpc.planner import HandState, Obstacle, TaskPlanner
 from harmony_cli.experiment.run import run_scenario
+from harmony_cli.maths.shapes import Shape, obstacle_shape
+from harmony_cli.mpc import wholebody
+from harmony_cli.mpc.planner import HandState, Obstacle, TaskPlanner
 from harmony_cli.scenario import ObstacleSpec, PlannerSpec, ScenarioError, WorldSpec, load_scenario
 from harmony_cli.sim.simulation import Simulation
-
-from conftest import ROOT, TABLE1, assert_rejected
+from harmony_cli.tasks.motion import centre_at, obstacle_predictor
 
 runner = CliRunner()
 BOX = ROOT / "scenarios" / "smoke" / "box_lift.yaml"
@@ -26,15 +28,17 @@ DYNAMIC = ROOT / "scenarios" / "paper" / "dynamic_obstacle.yaml"
 
 
 def _obstacle(motion, position=(0.0, 0.0, 1.0)) -> ObstacleSpec:
-    return ObstacleSpec.model_validate({"name": "o", "shape": "cylinder", "position": position,
-                                        "size": [0.4, 0.4, 2.0], "motion": motion})
+    return ObstacleSpec.model_validate(
+        {"name": "o", "shape": "cylinder", "position": position, "size": [0.4, 0.4, 2.0], "motion": motion}
+    )
 
 
 def test_constant_velocity_moves_between_start_and_stop_and_holds_outside():
     o = _obstacle({"velocity": [0.5, -0.2, 0.0], "start": 1.0, "stop": 3.0}, position=(1.0, 2.0, 1.0))
     centres = centre_at(o, [0.0, 1.0, 2.0, 3.0, 10.0])
-    np.testing.assert_allclose(centres, [[1.0, 2.0, 1.0], [1.0, 2.0, 1.0], [1.5, 1.8, 1.0], [2.0, 1.6, 1.0],
-                                         [2.0, 1.6, 1.0]])
+    np.testing.assert_allclose(
+        centres, [[1.0, 2.0, 1.0], [1.0, 2.0, 1.0], [1.5, 1.8, 1.0], [2.0, 1.6, 1.0], [2.0, 1.6, 1.0]]
+    )
 
 
 def test_waypoints_interpolate_linearly_and_hold_their_ends():
@@ -55,26 +59,43 @@ def test_a_static_obstacle_is_where_it_stands_and_predicts_nothing():
 OBSTACLE = "world: {obstacles: [{name: o, shape: cylinder, size: [0.4, 0.4, 2], %s}]}\n"
 
 
-@pytest.mark.parametrize("fields, expected", [
-    ("position: [0, 0, 1], motion: {velocity: [0, 1, 0], start: 2, stop: 1}",
-     ["world.obstacles.0.motion.stop", "1", "must be after start (2 s)"]),
-    ("motion: {waypoints: [[0, 0, 0, 1], [2, 1, 0, 1], [1, 1, 1, 1]]}",
-     ["world.obstacles.0.motion.waypoints", "strictly increasing", "waypoint 2 at t = 1 s follows t = 2 s"]),
-    ("position: [0, 0, 1], motion: {}", ["world.obstacles.0.motion", "exactly one of velocity", "waypoints"]),
-    ("position: [0, 0, 1], motion: {velocity: [0, 1, 0], waypoints: [[0, 0, 0, 1], [1, 1, 0, 1]]}",
-     ["world.obstacles.0.motion", "exactly one of velocity"]),
-    ("position: [0, 0, 1], motion: {waypoints: [[0, 0, 0, 1], [1, 1, 0, 1]], start: 1}",
-     ["world.obstacles.0.motion", "start / stop go with velocity"]),
-    ("position: [1, 0, 1], motion: {waypoints: [[0, 0, 0, 1], [1, 1, 0, 1]]}",
-     ["world.obstacles.0", "not the waypoints' centre at t = 0", "[0.0, 0.0, 1.0]"]),
-    ("position: [0, 0, 1], motion: {waypoints: [[0, 0, 0, 1]]}",
-     ["world.obstacles.0.motion.waypoints", "at least 2"]),
-    ("position: [0, 0, 1], motion: {speed: 1}", ["world.obstacles.0.motion.speed", "velocity, start, stop, waypoints"]),
-])
+@pytest.mark.parametrize(
+    "fields, expected",
+    [
+        (
+            "position: [0, 0, 1], motion: {velocity: [0, 1, 0], start: 2, stop: 1}",
+            ["world.obstacles.0.motion.stop", "1", "must be after start (2 s)"],
+        ),
+        (
+            "motion: {waypoints: [[0, 0, 0, 1], [2, 1, 0, 1], [1, 1, 1, 1]]}",
+            ["world.obstacles.0.motion.waypoints", "strictly increasing", "waypoint 2 at t = 1 s follows t = 2 s"],
+        ),
+        ("position: [0, 0, 1], motion: {}", ["world.obstacles.0.motion", "exactly one of velocity", "waypoints"]),
+        (
+            "position: [0, 0, 1], motion: {velocity: [0, 1, 0], waypoints: [[0, 0, 0, 1], [1, 1, 0, 1]]}",
+            ["world.obstacles.0.motion", "exactly one of velocity"],
+        ),
+        (
+            "position: [0, 0, 1], motion: {waypoints: [[0, 0, 0, 1], [1, 1, 0, 1]], start: 1}",
+            ["world.obstacles.0.motion", "start / stop go with velocity"],
+        ),
+        (
+            "position: [1, 0, 1], motion: {waypoints: [[0, 0, 0, 1], [1, 1, 0, 1]]}",
+            ["world.obstacles.0", "not the waypoints' centre at t = 0", "[0.0, 0.0, 1.0]"],
+        ),
+        (
+            "position: [0, 0, 1], motion: {waypoints: [[0, 0, 0, 1]]}",
+            ["world.obstacles.0.motion.waypoints", "at least 2"],
+        ),
+        (
+            "position: [0, 0, 1], motion: {speed: 1}",
+            ["world.obstacles.0.motion.speed", "velocity, start, stop, waypoints"],
+        ),
+    ],
+)
 def test_bad_motion_gets_one_line_naming_file_field_value_and_what_is_valid(tmp_path, fields, expected):
     path = tmp_path / "bad.yaml"
-    path.write_text("name: x\nrobot: {profile: eva}\nreference: {type: hold}\n"
-                    + OBSTACLE % fields)
+    path.write_text("name: x\nrobot: {profile: eva}\nreference: {type: hold}\n" + OBSTACLE % fields)
     assert_rejected(path, expected)
 
 
@@ -87,13 +108,24 @@ def test_a_list_index_in_an_override_freezes_the_moving_obstacle():
 
 
 def test_the_pybullet_body_is_where_the_motion_says_and_closest_points_see_it_there(eva):
-    spec = WorldSpec.model_validate({"obstacles": [
-        {"name": "walker", "shape": "cylinder", "position": [1.5, -1.0, 1.0], "size": [0.4, 0.4, 2.0],
-         "motion": {"velocity": [0.0, 0.5, 0.0], "start": 0.1, "stop": 0.5}}]})
+    spec = WorldSpec.model_validate(
+        {
+            "obstacles": [
+                {
+                    "name": "walker",
+                    "shape": "cylinder",
+                    "position": [1.5, -1.0, 1.0],
+                    "size": [0.4, 0.4, 2.0],
+                    "motion": {"velocity": [0.0, 0.5, 0.0], "start": 0.1, "stop": 0.5},
+                }
+            ]
+        }
+    )
     sim = Simulation(eva, load_scenario(TABLE1).sim, spec)
     world, walker = sim.world, spec.obstacles[0]
-    probe = sim.client.createMultiBody(0, sim.client.createCollisionShape(pybullet.GEOM_SPHERE, radius=1e-3), -1,
-                                       [1.5, 0.0, 1.0])
+    probe = sim.client.createMultiBody(
+        0, sim.client.createCollisionShape(pybullet.GEOM_SPHERE, radius=1e-3), -1, [1.5, 0.0, 1.0]
+    )
     try:
         seen = []
         for _ in range(40):  # 0.8 s: still, moving, stopped
@@ -119,8 +151,11 @@ def moving_run(tmp_path_factory):
         params.append((self.params.copy(), self.problem.ref_shape, self.knot_times.copy(), self.layout))
         return out
 
-    walker = ("world.obstacles=[{name: walker, shape: cylinder, position: [0.6, -1.2, 1.0], size: [0.4, 0.4, 2.0], "
-              "margin: 0.1, motion: {velocity: [0.3, 0.2, 0.0]}}]")
+    walker = (
+        "world.obstacles=[{name: walker, shape: cylinder, position: [0.6, -1.2, 1.0], size: [0.4, 0.4, 2.0], "
+        "margin: 0.1, motion: {velocity: [0.3, 0.2, 0.0]}}, "
+        "{name: post, shape: box, position: [-2.0, 2.0, 1.0], size: [0.2, 0.2, 2.0]}]"
+    )
     out = tmp_path_factory.mktemp("moving") / "run"
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(wholebody.WholeBodyMPC, "step", recording_step)
@@ -146,18 +181,33 @@ def test_the_obstacle_track_and_its_min_clearance_are_logged(moving_run):
     steps = pd.read_csv(out / "steps.csv")
     track = steps[[f"obstacle_walker_{a}" for a in "xyz"]].to_numpy()
     np.testing.assert_allclose(track, centre_at(scenario.world.obstacles[0], steps["t"]), atol=1e-9)
+    # PyBullet's robot clearance is at most each hand's: the grasp frames lie on the pads' surfaces (Bullet's
+    # collision margins: 1 mm per body)
+    walker = obstacle_shape(scenario.world.obstacles[0])
+    for hand in ("left", "right"):
+        hands = steps[[f"{hand}_meas_{a}" for a in "xyz"]].to_numpy()
+        to_hand = np.array(
+            [walker.distance((p - centre + walker.centre)[None])[0][0] for p, centre in zip(hands, track)]
+        )
+        assert np.all(steps["clearance_robot_walker_m"] <= to_hand + 2e-3)
     task = json.loads((out / "summary.json").read_text())["task"]
-    assert task["min_clearance_moving_m"]["walker"] == task["min_clearance_m"]["walker"]
+    assert set(task["min_clearance_moving_m"]) == {"walker"} and set(task["min_clearance_m"]) == {"walker", "post"}
     assert task["min_clearance_moving_m"]["walker"]["robot"] == pytest.approx(steps["clearance_robot_walker_m"].min())
-    assert (out / "top_down.png").exists()
 
 
 def test_paths_command_overlays_runs_of_one_scene(moving_run, tmp_path):
     out, *_ = moving_run
+    other = tmp_path / "again"
+    shutil.copytree(out, other)
     image = tmp_path / "paths.png"
-    result = runner.invoke(app, ["paths", str(out), str(out), "--out", str(image)])
+    result = runner.invoke(app, ["paths", str(out), str(other), "--out", str(image)])
     assert result.exit_code == 0, result.output
-    assert image.stat().st_size > 10_000
+    pixels = (plt.imread(image)[..., :3] * 255).round()
+    drawn = [
+        (np.abs(pixels - 255 * np.array(to_rgb(colour))).max(axis=2) <= 2).sum()
+        for colour in plt.rcParams["axes.prop_cycle"].by_key()["color"][:3]
+    ]
+    assert drawn[0] > 50 and drawn[1] > 50 and drawn[2] == 0, drawn  # a colour per run: two runs, not three
     result = runner.invoke(app, ["paths", str(tmp_path), "--out", str(image)])
     assert result.exit_code == 2 and "no steps.csv" in result.output
 

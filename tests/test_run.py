@@ -3,11 +3,10 @@
 import json
 
 import pandas as pd
+from conftest import SMOKE
 from typer.testing import CliRunner
 
 from harmony_cli.cli import app
-
-from conftest import SMOKE
 
 runner = CliRunner()
 
@@ -16,8 +15,17 @@ def test_run_writes_a_self_describing_run_directory(tmp_path):
     out = tmp_path / "run"
     result = runner.invoke(app, ["run", str(SMOKE), "--out", str(out), "--quiet", "--set", "mpc.knots=8"])
     assert result.exit_code == 0, result.output
-    for name in ("scenario.resolved.yaml", "overrides.yaml", "meta.json", "steps.csv", "summary.json", "run.log",
-                 "solve_time.png", "hand_paths.png", "tracking_error.png"):
+    for name in (
+        "scenario.resolved.yaml",
+        "overrides.yaml",
+        "meta.json",
+        "steps.csv",
+        "summary.json",
+        "run.log",
+        "solve_time.png",
+        "hand_paths.png",
+        "tracking_error.png",
+    ):
         assert (out / name).exists(), name
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "completed" and summary["failed_solves"] == 0
@@ -26,9 +34,17 @@ def test_run_writes_a_self_describing_run_directory(tmp_path):
     meta = json.loads((out / "meta.json").read_text())
     assert {"packages", "git_sha", "cpu", "seed", "concurrency"} <= set(meta)
     steps = pd.read_csv(out / "steps.csv")
-    assert len(steps) == 50 and {"solve_ms", "status", "iterations", "cost_position_left", "left_ref_x",
-                                 "left_meas_x", "cmd_qd_base_x", "left_force_normal_N",
-                                 "right_force_z_N"} <= set(steps.columns)
+    assert len(steps) == 50 and {
+        "solve_ms",
+        "status",
+        "iterations",
+        "cost_position_left",
+        "left_ref_x",
+        "left_meas_x",
+        "cmd_qd_base_x",
+        "left_force_normal_N",
+        "right_force_z_N",
+    } <= set(steps.columns)
     assert "mpc.knots=8" in (out / "overrides.yaml").read_text()
     # the resolved scenario re-runs from the run directory alone
     again = runner.invoke(app, ["validate", str(out / "scenario.resolved.yaml")])
@@ -45,8 +61,20 @@ def test_base_moves_by_velocity_and_hands_follow_the_reference(tmp_path):
 
 def test_a_run_that_fails_part_way_leaves_its_logs_and_a_status(tmp_path):
     out = tmp_path / "run"
-    result = runner.invoke(app, ["run", str(SMOKE), "--out", str(out), "--quiet", "--set", "solver.name=ipopt",
-                                 "--set", "solver.options={ipopt.max_iter: 0}"])
+    result = runner.invoke(
+        app,
+        [
+            "run",
+            str(SMOKE),
+            "--out",
+            str(out),
+            "--quiet",
+            "--set",
+            "solver.name=ipopt",
+            "--set",
+            "solver.options={ipopt.max_iter: 0}",
+        ],
+    )
     assert result.exit_code == 1 and "Traceback" not in result.output and "run failed" in result.output
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "failed" and "solve failed" in summary["error"]
@@ -55,18 +83,37 @@ def test_a_run_that_fails_part_way_leaves_its_logs_and_a_status(tmp_path):
 
 def test_compare_writes_table1_layout_with_decision_variables_from_the_built_problems(tmp_path):
     out = tmp_path / "cmp"
-    result = runner.invoke(app, ["compare", str(SMOKE), "--grid", "mpc.transcription=traditional,bezier",
-                                 "--set", "sim.duration=0.4", "--out", str(out), "--name", "table1"])
+    result = runner.invoke(
+        app,
+        [
+            "compare",
+            str(SMOKE),
+            "--grid",
+            "mpc.transcription=traditional,bezier",
+            "--set",
+            "sim.duration=0.4",
+            "--out",
+            str(out),
+            "--name",
+            "table1",
+        ],
+    )
     assert result.exit_code == 0, result.output
-    md = (out / "table1.md").read_text()
-    assert "= 216" in md and "= 108" in md and "Max tracking error" in md and "1 run(s) at a time" in md
-    assert (out / "table1.csv").exists() and (out / "table1.tex").exists()
+    table = pd.read_csv(out / "table1.csv", index_col=0)
+    counts = sorted(int(v.rsplit("= ", 1)[1]) for v in table.loc["Decision variable No."] if "=" in str(v))
+    assert counts == [6 * 18, 2 * 6 * 18]  # Bezier: N x n_dof; traditional: 2 K x n_dof (K = 6 in the smoke file)
+    cpu = json.loads((out / "runs" / "transcription-bezier" / "meta.json").read_text())["cpu"]
+    assert cpu in (out / "table1.md").read_text() and (out / "table1.tex").exists()
     assert (out / "fig4_solve_time.png").exists() and (out / "fig4_tracking_error.png").exists()
 
 
 def test_grid_points_expand_and_label_by_the_last_key_and_the_whole_value():
     from harmony_cli.experiment.sweep import expand_grid, point_label
+
     points = expand_grid(["mpc.knots=6,26", "admittance.off_squeeze=0.0003"])
-    assert points == [["mpc.knots=6", "admittance.off_squeeze=0.0003"], ["mpc.knots=26", "admittance.off_squeeze=0.0003"]]
+    assert points == [
+        ["mpc.knots=6", "admittance.off_squeeze=0.0003"],
+        ["mpc.knots=26", "admittance.off_squeeze=0.0003"],
+    ]
     assert [point_label(p) for p in points] == ["knots-6_off_squeeze-0.0003", "knots-26_off_squeeze-0.0003"]
     assert point_label([]) == "base"

@@ -4,12 +4,11 @@ import json
 from pathlib import Path
 
 import pytest
+from conftest import ROOT, TABLE1, assert_rejected
 from typer.testing import CliRunner
 
 from harmony_cli.cli import app
 from harmony_cli.scenario import ScenarioError, apply_overrides, load_scenario
-
-from conftest import ROOT, TABLE1, assert_rejected
 
 SHIPPED = sorted(p for p in (ROOT / "scenarios").rglob("*.yaml"))
 runner = CliRunner()
@@ -39,28 +38,49 @@ def _write(tmp_path: Path, text: str) -> Path:
 BASE = "name: x\nrobot: {urdf: URDF}\nreference: {type: hold}\n"
 
 
-@pytest.mark.parametrize("text, expected", [
-    (BASE + "mpc: {transcripton: bezier}\n", ["mpc.transcripton", "'bezier'", "transcription, integration"]),
-    (BASE + "mpc: {transcription: bezeir}\n", ["mpc.transcription", "'bezeir'", "'bezier' or 'traditional'"]),
-    (BASE + "solver: {name: knitro}\n", ["solver.name", "'knitro'", "ipopt", "rti"]),
-    (BASE + "solver: {qp: cplex}\n", ["solver.qp", "'cplex'", "'auto'"]),
-    (BASE + "sim: {physics_dt: 0.0041666667, control_dt: 0.02}\n", ["sim.control_dt", "0.02", "whole multiple"]),
-    (BASE + "mpc: {knots: 1}\n", ["mpc.knots", "1", "greater than or equal to 2"]),
-    ("name: x\nrobot: {urdf: URDF}\nreference: {type: circle}\n", ["reference.type", "'circle'", "'s_curve'", "'hold'"]),
-    ("name: x\nrobot: {urdf: URDF}\n", ["reference", "missing"]),
-    ("name: x\nrobot: {urdf: URDF, base_joints: [base_x, base_y, base_z]}\nreference: {type: hold}\n",
-     ["robot.base_joints", "'base_z'", "base_x"]),
-    ("name: x\nrobot: {profile: eva, urdf: nowhere.urdf}\nreference: {type: hold}\n", ["robot.urdf", "nowhere.urdf"]),
-    ("name: [unclosed\n", ["not valid YAML"]),
-    ("name: x\nrobot: {urdf: URDF}\ntask: {phases: [{name: a, duration: 1, hands: {left: {relative_to: shelf, "
-     "offset: [0, 0, 0]}, right: null}}]}\n", ["task.phases.0.hands.left.relative_to", "'shelf'", "(none)"]),
-    ("name: x\nrobot: {urdf: URDF}\ntask: {phases: [{name: a, duration: 1, hands: {left: [1, 2, 3]}}]}\n",
-     ["task.phases.0.hands", "left, right"]),
-    (BASE + "world: {obstacles: [{name: o, shape: cone, position: [0, 0, 0], size: [1, 1, 1]}]}\n",
-     ["world.obstacles.0.shape", "'cone'", "'cylinder'"]),
-    ("name: x\nrobot: {urdf: URDF}\nreference: {type: hold}\ntask: {phases: [{name: a, duration: 1, hands: "
-     "{left: null, right: null}}]}\n", ["reference / task", "both given"]),
-])
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        (BASE + "mpc: {transcripton: bezier}\n", ["mpc.transcripton", "'bezier'", "transcription, integration"]),
+        (BASE + "mpc: {transcription: bezeir}\n", ["mpc.transcription", "'bezeir'", "'bezier' or 'traditional'"]),
+        (BASE + "solver: {name: knitro}\n", ["solver.name", "'knitro'", "ipopt", "rti"]),
+        (BASE + "solver: {qp: cplex}\n", ["solver.qp", "'cplex'", "'auto'"]),
+        (BASE + "sim: {physics_dt: 0.0041666667, control_dt: 0.02}\n", ["sim.control_dt", "0.02", "whole multiple"]),
+        (BASE + "mpc: {knots: 1}\n", ["mpc.knots", "1", "greater than or equal to 2"]),
+        (
+            "name: x\nrobot: {urdf: URDF}\nreference: {type: circle}\n",
+            ["reference.type", "'circle'", "'s_curve'", "'hold'"],
+        ),
+        ("name: x\nrobot: {urdf: URDF}\n", ["reference", "missing"]),
+        (
+            "name: x\nrobot: {urdf: URDF, base_joints: [base_x, base_y, base_z]}\nreference: {type: hold}\n",
+            ["robot.base_joints", "'base_z'", "base_x"],
+        ),
+        (
+            "name: x\nrobot: {profile: eva, urdf: nowhere.urdf}\nreference: {type: hold}\n",
+            ["robot.urdf", "nowhere.urdf"],
+        ),
+        ("name: [unclosed\n", ["not valid YAML"]),
+        (
+            "name: x\nrobot: {urdf: URDF}\ntask: {phases: [{name: a, duration: 1, hands: {left: {relative_to: shelf, "
+            "offset: [0, 0, 0]}, right: null}}]}\n",
+            ["task.phases.0.hands.left.relative_to", "'shelf'", "(none)"],
+        ),
+        (
+            "name: x\nrobot: {urdf: URDF}\ntask: {phases: [{name: a, duration: 1, hands: {left: [1, 2, 3]}}]}\n",
+            ["task.phases.0.hands", "left, right"],
+        ),
+        (
+            BASE + "world: {obstacles: [{name: o, shape: cone, position: [0, 0, 0], size: [1, 1, 1]}]}\n",
+            ["world.obstacles.0.shape", "'cone'", "'cylinder'"],
+        ),
+        (
+            "name: x\nrobot: {urdf: URDF}\nreference: {type: hold}\ntask: {phases: [{name: a, duration: 1, hands: "
+            "{left: null, right: null}}]}\n",
+            ["reference / task", "both given"],
+        ),
+    ],
+)
 def test_bad_file_gets_one_line_naming_file_field_value_and_choices(tmp_path, text, expected):
     path = _write(tmp_path, text)
     assert_rejected(path, expected)

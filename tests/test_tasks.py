@@ -10,13 +10,17 @@ from harmony_cli.tasks.schedule import Schedule
 
 HANDS = ("left", "right")
 STAY = {"left": None, "right": None}
-TASK = TaskSpec.model_validate({"phases": [
-    {"name": "approach", "duration": 2.0, "hands": STAY},
-    {"name": "squeeze", "duration": 1.5, "hands": STAY, "grasp": True},
-    {"name": "carry", "duration": 3.0, "hands": STAY},
-    {"name": "release", "duration": 1.0, "hands": STAY, "release": True},
-    {"name": "retreat", "duration": 0.5, "hands": STAY},
-]})
+TASK = TaskSpec.model_validate(
+    {
+        "phases": [
+            {"name": "approach", "duration": 2.0, "hands": STAY},
+            {"name": "squeeze", "duration": 1.5, "hands": STAY, "grasp": True},
+            {"name": "carry", "duration": 3.0, "hands": STAY},
+            {"name": "release", "duration": 1.0, "hands": STAY, "release": True},
+            {"name": "retreat", "duration": 0.5, "hands": STAY},
+        ]
+    }
+)
 ENDS = np.cumsum([2.0, 1.5, 3.0, 1.0, 0.5])  # 2, 3.5, 6.5, 7.5, 8
 HANDS_NOW = np.array([[0.5, 0.2, 1.0], [0.5, -0.2, 1.0]])
 
@@ -25,8 +29,10 @@ def _phase(**fields):
     return TaskSpec.model_validate({"phases": [{"name": "p", "duration": 1.0, **fields}]}).phases[0]
 
 
-@pytest.mark.parametrize(("t", "index"), [(0.0, 0), (1.999, 0), (2.0, 1), (3.4, 1), (3.5, 2), (6.5, 3), (7.5, 4),
-                                          (7.99, 4), (8.0, 4), (100.0, 4)])
+@pytest.mark.parametrize(
+    ("t", "index"),
+    [(0.0, 0), (1.999, 0), (2.0, 1), (3.4, 1), (3.5, 2), (6.5, 3), (7.5, 4), (7.99, 4), (8.0, 4), (100.0, 4)],
+)
 def test_phase_at_t_starts_where_the_previous_one_ends_and_the_last_is_held(t, index):
     schedule = Schedule(TASK, HANDS)
     active = schedule.at(t)
@@ -47,8 +53,12 @@ def test_absolute_goals_replace_the_hand_positions_and_null_keeps_them():
 
 def test_relative_goal_offsets_turn_with_the_object_s_yaw():
     schedule = Schedule(TASK, HANDS)
-    phase = _phase(hands={"left": {"relative_to": "box", "offset": [1.0, 0.0, 0.0]},
-                          "right": {"relative_to": "box", "offset": [0.2, -0.3, 0.1]}})
+    phase = _phase(
+        hands={
+            "left": {"relative_to": "box", "offset": [1.0, 0.0, 0.0]},
+            "right": {"relative_to": "box", "offset": [0.2, -0.3, 0.1]},
+        }
+    )
     box = np.array([2.0, 1.0, 0.9])
     goal = schedule.goal(phase, HANDS_NOW, {"box": (box, np.pi / 2)})
     np.testing.assert_allclose(goal[0], box + [0.0, 1.0, 0.0], atol=1e-12)
@@ -69,7 +79,20 @@ def test_squeeze_moves_the_two_goals_towards_each_other_by_the_squeeze_in_total(
     np.testing.assert_allclose(plain, [left, right])
 
 
-@pytest.mark.parametrize(("t", "held"), [(0.0, False), (2.0, False), (3.49, False), (3.5, True), (5.0, True),
-                                         (6.49, True), (6.5, False), (7.0, False), (8.0, False), (50.0, False)])
+@pytest.mark.parametrize(
+    ("t", "held"),
+    [
+        (0.0, False),
+        (2.0, False),
+        (3.49, False),
+        (3.5, True),
+        (5.0, True),
+        (6.49, True),
+        (6.5, False),
+        (7.0, False),
+        (8.0, False),
+        (50.0, False),
+    ],
+)
 def test_box_is_held_from_the_end_of_the_grasp_phase_until_a_release_phase_starts(t, held):
     assert Schedule(TASK, HANDS).holding(t) is held

@@ -18,8 +18,11 @@ ROOT = Path(__file__).resolve().parents[1]
 TWIN_ARM = ROOT / "scenarios/robots/twin_arm.urdf"
 EVA = ROOT / "harmony_cli/robot/profiles/eva.urdf"
 BASE = ("base_x", "base_y", "base_yaw")
-ARM_JOINTS = [f"{side}_{name}" for side in "lr"
-              for name in ("shoulder_pitch", "shoulder_roll", "elbow", "wrist_pitch", "wrist_yaw")]
+ARM_JOINTS = [
+    f"{side}_{name}"
+    for side in "lr"
+    for name in ("shoulder_pitch", "shoulder_roll", "elbow", "wrist_pitch", "wrist_yaw")
+]
 GRASPS = ("l_grasp", "r_grasp")
 HAND_MESH_URI = "package://twin_arm_meshes/meshes/hand.stl"
 TETRAHEDRON_STL = """solid tetrahedron
@@ -124,8 +127,9 @@ def test_home_grasp_frames_face_each_other_and_ride_on_base_x(tmp_path):
     moved = home.copy()
     moved[0] = 1.0
     for grasp in GRASPS:
-        np.testing.assert_allclose(_optas_position(model, grasp, moved) - _optas_position(model, grasp, home),
-                                   [1, 0, 0], atol=1e-12)
+        np.testing.assert_allclose(
+            _optas_position(model, grasp, moved) - _optas_position(model, grasp, home), [1, 0, 0], atol=1e-12
+        )
 
 
 def test_arms_move_the_hands_in_every_direction_at_home(tmp_path):

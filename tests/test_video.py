@@ -18,9 +18,11 @@ def world():
     client.setGravity(0, 0, -9.81)
     client.createMultiBody(0, client.createCollisionShape(pybullet.GEOM_PLANE))
     box = client.createMultiBody(
-        1.0, client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=[0.5, 0.5, 0.5]),
+        1.0,
+        client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=[0.5, 0.5, 0.5]),
         client.createVisualShape(pybullet.GEOM_BOX, halfExtents=[0.5, 0.5, 0.5], rgbaColor=[0.9, 0.1, 0.1, 1]),
-        basePosition=[0, 0, 1.0])
+        basePosition=[0, 0, 1.0],
+    )
     yield client, box
     client.disconnect()
 

@@ -3,32 +3,38 @@
 import casadi as cs
 import numpy as np
 import pytest
+from conftest import TABLE1
 
-from harmony_cli.mpc.knot_params import hand_rows
-from harmony_cli.tasks.reference import HandReference
-from harmony_cli.scenario import load_scenario
-from harmony_cli.mpc.knot_derivatives import KnotConstraints, KnotDerivatives
-from harmony_cli.mpc.native_oracle import native_oracle
+from harmony_cli.maths.shapes import obstacle_shape
 from harmony_cli.mpc import nlp
+from harmony_cli.mpc.knot_derivatives import KnotConstraints, KnotDerivatives
+from harmony_cli.mpc.knot_params import hand_rows
+from harmony_cli.mpc.native_oracle import native_oracle
 from harmony_cli.mpc.nlp import NlpSolver, SymbolicNlpSolver
 from harmony_cli.mpc.registry import make_solver
 from harmony_cli.mpc.transcription import TraditionalTranscription, make_transcription
 from harmony_cli.mpc.wholebody import WholeBodyMPC
 from harmony_cli.mpc.wholebody_problem import build_problem
-from harmony_cli.maths.shapes import obstacle_shape
-
-from conftest import TABLE1
+from harmony_cli.scenario import load_scenario
+from harmony_cli.tasks.reference import HandReference
 
 
 def _problem(eva, *overrides):
     scenario = load_scenario(TABLE1, list(overrides))
     transcription = make_transcription(scenario.mpc, eva.n_dof)
-    return scenario, transcription, build_problem(eva, transcription, scenario.mpc.weights,
-                                                  scenario.robot.chest_joints, scenario.robot.mirrored_joints)
+    return (
+        scenario,
+        transcription,
+        build_problem(
+            eva, transcription, scenario.mpc.weights, scenario.robot.chest_joints, scenario.robot.mirrored_joints
+        ),
+    )
 
 
-@pytest.mark.parametrize("transcription, knots, expected", [
-    ("bezier", 6, 108), ("bezier", 26, 108), ("traditional", 6, 216), ("traditional", 26, 936)])
+@pytest.mark.parametrize(
+    "transcription, knots, expected",
+    [("bezier", 6, 108), ("bezier", 26, 108), ("traditional", 6, 216), ("traditional", 26, 936)],
+)
 def test_decision_variable_counts_match_the_paper(eva, transcription, knots, expected):
     *_, problem = _problem(eva, f"mpc.transcription={transcription}", f"mpc.knots={knots}")
     assert problem.n_vars == expected
@@ -53,9 +59,13 @@ def test_structured_gradient_matches_finite_differences_of_the_named_cost_terms(
 
 @pytest.mark.parametrize("transcription", ["bezier", "traditional"])
 def test_gauss_newton_hessian_equals_exact_hessian_where_residuals_vanish(eva, rng, transcription):
-    scenario, tr, problem = _problem(eva, f"mpc.transcription={transcription}", "mpc.knots=6",
-                                     "mpc.weights={position: 1, orientation: 1, chest_yaw: 10, arm_symmetry: 0.1, "
-                                     "posture: 0, velocity: 0.01, acceleration: 0.001}")
+    scenario, tr, problem = _problem(
+        eva,
+        f"mpc.transcription={transcription}",
+        "mpc.knots=6",
+        "mpc.weights={position: 1, orientation: 1, chest_yaw: 10, arm_symmetry: 0.1, "
+        "posture: 0, velocity: 0.01, acceleration: 0.001}",
+    )
     x = np.tile(eva.home, tr.n_vars // eva.n_dof) + 0.05 * rng.standard_normal(tr.n_vars)
     q_knots = tr.knots(x)[0]
     poses = [eva.hand_poses_numeric(q_knots[:, k]) for k in range(tr.n_knots)]
@@ -100,8 +110,8 @@ def test_native_oracle_equals_the_numpy_assembly_and_its_reverse_mode_is_the_gra
     sens = np.array(adj(x, p)).ravel()
     H = np.zeros((x.size, x.size))
     H[model.rows, model.cols] = h
-    np.testing.assert_allclose(sens[:x.size], 3.0 * g + H @ seed, rtol=1e-10, atol=1e-10)
-    assert np.isnan(sens[x.size:]).all()
+    np.testing.assert_allclose(sens[: x.size], 3.0 * g + H @ seed, rtol=1e-10, atol=1e-10)
+    assert np.isnan(sens[x.size :]).all()
 
 
 def test_bezier_trajectory_satisfies_trapezoidal_integration_better_than_euler(eva, rng):
@@ -114,7 +124,7 @@ def test_bezier_trajectory_satisfies_trapezoidal_integration_better_than_euler(e
     for integration in ("euler", "trapezoidal"):
         trad = TraditionalTranscription(eva.n_dof, 26, 5.0, integration)
         sym = cs.SX.sym("x", trad.n_vars)
-        (expr, _, _), = trad.linear_constraints(sym, eva.velocity_limit).values()
+        ((expr, _, _),) = trad.linear_constraints(sym, eva.velocity_limit).values()
         residual[integration] = np.abs(np.array(cs.Function("r", [sym], [expr])(state))).max()
     assert residual["trapezoidal"] < 0.05 * residual["euler"]
     assert residual["trapezoidal"] < 1e-3
@@ -130,14 +140,14 @@ def _solve_once(eva, *overrides):
 
 def test_ipopt_and_gauss_newton_sqp_reach_the_same_optimum(eva):
     _, _, ipopt = _solve_once(eva, "mpc.knots=6", "solver.name=ipopt")
-    mpc, _, gn = _solve_once(eva, "mpc.knots=6", "solver.name=gauss_newton", "solver.tol=1.0e-9",
-                             "solver.max_iter=100")
+    mpc, _, gn = _solve_once(eva, "mpc.knots=6", "solver.name=gauss_newton", "solver.tol=1.0e-9", "solver.max_iter=100")
     assert ipopt.success and gn.success
     np.testing.assert_allclose(gn.x, ipopt.x, atol=2e-4)
     # CasADi's own AD on the full symbolic problem (the path for plugins that reject structured oracles)
     symbolic = SymbolicNlpSolver(mpc.problem, "ipopt", {"ipopt.print_level": 0, "ipopt.sb": "yes"})
-    lbx, ubx = mpc.transcription.bounds(eva.lower, eva.upper, eva.velocity_limit, eva.home,
-                                        list(eva.pinned_joints), eva.home[list(eva.pinned_joints)])
+    lbx, ubx = mpc.transcription.bounds(
+        eva.lower, eva.upper, eva.velocity_limit, eva.home, list(eva.pinned_joints), eva.home[list(eva.pinned_joints)]
+    )
     p = _reference(eva, load_scenario(TABLE1, ["mpc.knots=6"]), mpc.transcription, t=6.0)
     reference = symbolic.solve(np.clip(np.tile(eva.home, 6), lbx, ubx), lbx, ubx, p)
     assert reference.success
@@ -213,8 +223,9 @@ def test_hard_clearance_holds_binds_and_every_solver_reaches_the_same_optimum(ev
     assert gn.success and (lower == 0).all()
     assert h.min() > -1e-8 and h.min() < 1e-6  # feasible and binding: the references pull through the wall
     assert _footprint_margins(mpc, scenario, gn.x).min() >= h.min() - 1e-9  # the soft-min is a lower bound
-    lbx, ubx = mpc.transcription.bounds(eva.lower, eva.upper, eva.velocity_limit, eva.home,
-                                        list(eva.pinned_joints), eva.home[list(eva.pinned_joints)])
+    lbx, ubx = mpc.transcription.bounds(
+        eva.lower, eva.upper, eva.velocity_limit, eva.home, list(eva.pinned_joints), eva.home[list(eva.pinned_joints)]
+    )
     x0 = np.clip(mpc._constant(eva.home), lbx, ubx)
     ipopt = make_solver(mpc.problem, load_scenario(NARROW, ["solver.name=ipopt"]).solver)
     assert isinstance(ipopt, NlpSolver)  # the structured path, not the symbolic fallback
@@ -232,16 +243,24 @@ def test_clearance_jacobian_and_curvature_match_finite_differences(eva, rng):
     constraints, model = KnotConstraints(mpc.problem), KnotDerivatives(mpc.problem)
     p = mpc.layout.stack(ref, mpc.obstacle_poses)
     x = mpc._constant(eva.home) + 0.05 * rng.standard_normal(mpc.problem.n_vars)
-    x[1::eva.n_dof] += 1.2  # base y: the footprint near the wall, both sides of the margin
+    x[1 :: eva.n_dof] += 1.2  # base y: the footprint near the wall, both sides of the margin
     h, _, C = constraints.evaluate(x, p)
     eps, lam = 1e-6, rng.standard_normal(h.size)
-    fd = np.array([(constraints.evaluate(x + eps * e, p)[0] - constraints.evaluate(x - eps * e, p)[0]) / (2 * eps)
-                   for e in np.eye(x.size)]).T
+    fd = np.array(
+        [
+            (constraints.evaluate(x + eps * e, p)[0] - constraints.evaluate(x - eps * e, p)[0]) / (2 * eps)
+            for e in np.eye(x.size)
+        ]
+    ).T
     np.testing.assert_allclose(C, fd, atol=1e-6)
     H = np.zeros((x.size, x.size))
     H[model.rows, model.cols] = model.assemble(constraints.curvature(x, p, lam))
-    fd = np.array([(constraints.evaluate(x + eps * e, p)[2] - constraints.evaluate(x - eps * e, p)[2]).T @ lam
-                   / (2 * eps) for e in np.eye(x.size)])
+    fd = np.array(
+        [
+            (constraints.evaluate(x + eps * e, p)[2] - constraints.evaluate(x - eps * e, p)[2]).T @ lam / (2 * eps)
+            for e in np.eye(x.size)
+        ]
+    )
     np.testing.assert_allclose(H, fd, atol=1e-4)
 
 

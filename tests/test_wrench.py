@@ -4,6 +4,7 @@ weight, a squeeze reads what the pad's contacts carry, and a wrong sensor joint 
 import numpy as np
 import pybullet
 import pytest
+from conftest import ROOT, TABLE1, assert_rejected
 from pybullet_utils.bullet_client import BulletClient
 
 from harmony_cli.robot.urdf import wrist_sensor_joints
@@ -11,13 +12,17 @@ from harmony_cli.scenario import load_scenario
 from harmony_cli.sim.simulation import Simulation
 from harmony_cli.sim.wrench import WristSensors
 
-from conftest import ROOT, TABLE1, assert_rejected
-
 SIM = load_scenario(TABLE1).sim
 SUBSTEPS = SIM.substeps
 # a second arm posture: shoulder raised, elbow rolled, wrist turned (pads no longer horizontal-facing)
-RAISED_DEG = {"LARM_JOINT1": -40, "LARM_JOINT3": 60, "LARM_JOINT5": 30,
-              "RARM_JOINT1": -30, "RARM_JOINT3": -70, "RARM_JOINT5": -50}
+RAISED_DEG = {
+    "LARM_JOINT1": -40,
+    "LARM_JOINT3": 60,
+    "LARM_JOINT5": 30,
+    "RARM_JOINT1": -30,
+    "RARM_JOINT3": -70,
+    "RARM_JOINT5": -50,
+}
 
 
 def _posture(robot, name):
@@ -76,17 +81,24 @@ def _hang(sim, hand, mass, offset):
     """A box of `mass` fixed to the pad, its centre `offset` [m] out along the pad normal (grasp z)."""
     c, obs = sim.client, sim.observe()
     centre = obs.hand_positions[hand] + obs.hand_rotations[hand] @ [0, 0, offset]
-    box = c.createMultiBody(mass, c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=[0.03] * 3), -1,
-                            centre.tolist(), c.getLinkState(sim.body, sim.hand_links[hand])[5])
+    box = c.createMultiBody(
+        mass,
+        c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=[0.03] * 3),
+        -1,
+        centre.tolist(),
+        c.getLinkState(sim.body, sim.hand_links[hand])[5],
+    )
     for link in range(c.getNumJoints(sim.body)):  # the load acts through the constraint only
         c.setCollisionFilterPair(sim.body, box, link, -1, 0)
-    constraint = c.createConstraint(sim.body, sim.hand_links[hand], box, -1, pybullet.JOINT_FIXED, [0, 0, 0],
-                                    [0, 0, offset], [0, 0, 0])
+    constraint = c.createConstraint(
+        sim.body, sim.hand_links[hand], box, -1, pybullet.JOINT_FIXED, [0, 0, 0], [0, 0, offset], [0, 0, 0]
+    )
     c.changeConstraint(constraint, maxForce=1e4)
 
 
-@pytest.mark.parametrize("posture, hand, mass", [("home", 0, 0.5), ("home", 1, 2.0), ("raised", 0, 2.0),
-                                                 ("raised", 1, 1.0)])
+@pytest.mark.parametrize(
+    "posture, hand, mass", [("home", 0, 0.5), ("home", 1, 2.0), ("raised", 0, 2.0), ("raised", 1, 1.0)]
+)
 def test_a_load_hung_on_a_pad_reads_m_g(sim, eva, posture, hand, mass):
     q = _posture(eva, posture)
     _hold(sim, q, 30)
@@ -108,17 +120,33 @@ def test_a_squeeze_reads_the_sum_of_the_pad_contact_normal_forces(sim, eva):
     middle = obs.hand_positions.mean(axis=0)
     assert np.allclose(obs.hand_rotations[0][:, 2] @ obs.hand_rotations[1][:, 2], -1, atol=1e-3)  # pads face
     half = [0.05, 0.05, gap / 2 + 0.005]  # in the right grasp frame: 5 mm into each pad
-    c.createMultiBody(0.5, c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half), -1, middle.tolist(),
-                      c.getLinkState(sim.body, sim.hand_links[1])[5])
-    c.createMultiBody(0, c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=[0.05, 0.05, 0.01]), -1,
-                      (middle - [0, 0, 0.06]).tolist())  # a stand under the box
+    c.createMultiBody(
+        0.5,
+        c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half),
+        -1,
+        middle.tolist(),
+        c.getLinkState(sim.body, sim.hand_links[1])[5],
+    )
+    c.createMultiBody(
+        0,
+        c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=[0.05, 0.05, 0.01]),
+        -1,
+        (middle - [0, 0, 0.06]).tolist(),
+    )  # a stand under the box
     _hold(sim, eva.home, 40)
     sensed, contacts = [], []
     for _ in range(20):
         sensed.append(_hold(sim, eva.home, 1).pad_forces)
-        contacts.append([sum(point[9] for link in tool  # normal force of every contact on the tool's links
-                             for point in c.getContactPoints(bodyA=sim.body, linkIndexA=link))
-                         for tool in sim.wrists.tools])
+        contacts.append(
+            [
+                sum(
+                    point[9]
+                    for link in tool  # normal force of every contact on the tool's links
+                    for point in c.getContactPoints(bodyA=sim.body, linkIndexA=link)
+                )
+                for tool in sim.wrists.tools
+            ]
+        )
     sensed, contacts = np.mean(sensed, axis=0), np.mean(contacts, axis=0)
     print(f"squeeze: sensed {sensed.round(2)} N, pad contacts {contacts.round(2)} N")
     assert np.all(contacts > 5.0)  # a real squeeze, on both pads
@@ -132,8 +160,9 @@ def test_the_reaction_convention_holds_for_a_tool_with_a_rotated_inertial_frame(
     tool = '<origin xyz="-0.04 0 -0.03" rpy="0 0 0"/>\n      <mass value="0.3113"/>'
     assert urdf.count(tool) == 2
     rotated = tmp_path / "eva_rotated_tool.urdf"
-    rotated.write_text(urdf.replace(tool, tool.replace('xyz="-0.04 0 -0.03" rpy="0 0 0"',
-                                                       'xyz="-0.05 0.01 -0.02" rpy="0.3 0.5 0.7"')))
+    rotated.write_text(
+        urdf.replace(tool, tool.replace('xyz="-0.04 0 -0.03" rpy="0 0 0"', 'xyz="-0.05 0.01 -0.02" rpy="0.3 0.5 0.7"'))
+    )
     c = BulletClient(connection_mode=pybullet.DIRECT)
     c.setGravity(0, 0, -9.81)
     body = c.loadURDF(str(rotated), useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
@@ -172,18 +201,24 @@ def test_sensing_does_not_change_the_dynamics(eva):
 
 def _write(tmp_path, robot):
     path = tmp_path / "bad.yaml"
-    path.write_text(f"name: x\nrobot: {{profile: eva, {robot}}}\n"
-                    "reference: {type: hold}\n")
+    path.write_text(f"name: x\nrobot: {{profile: eva, {robot}}}\nreference: {{type: hold}}\n")
     return path
 
 
-@pytest.mark.parametrize("robot, expected", [
-    ("wrist_sensors: {left: LARM_TOOL_JOINT, right: RARM_TOOL_JOIN}",
-     ["robot.wrist_sensors.right", "'RARM_TOOL_JOIN'", "RARM_FT_JOINT, RARM_TOOL_JOINT, RARM_GRASP_JOINT"]),
-    ("wrist_sensors: {left: LARM_JOINT5, right: RARM_TOOL_JOINT}",
-     ["robot.wrist_sensors.left", "'LARM_JOINT5'", "LARM_FT_JOINT, LARM_TOOL_JOINT, LARM_GRASP_JOINT"]),
-    ("wrist_sensors: {left: LARM_TOOL_JOINT}", ["robot.wrist_sensors", "['left']", "left, right"]),
-])
+@pytest.mark.parametrize(
+    "robot, expected",
+    [
+        (
+            "wrist_sensors: {left: LARM_TOOL_JOINT, right: RARM_TOOL_JOIN}",
+            ["robot.wrist_sensors.right", "'RARM_TOOL_JOIN'", "RARM_FT_JOINT, RARM_TOOL_JOINT, RARM_GRASP_JOINT"],
+        ),
+        (
+            "wrist_sensors: {left: LARM_JOINT5, right: RARM_TOOL_JOINT}",
+            ["robot.wrist_sensors.left", "'LARM_JOINT5'", "LARM_FT_JOINT, LARM_TOOL_JOINT, LARM_GRASP_JOINT"],
+        ),
+        ("wrist_sensors: {left: LARM_TOOL_JOINT}", ["robot.wrist_sensors", "['left']", "left, right"]),
+    ],
+)
 def test_a_wrong_sensor_joint_is_one_line_naming_file_field_value_and_choices(tmp_path, robot, expected):
     path = _write(tmp_path, robot)
     assert_rejected(path, expected)
@@ -192,15 +227,20 @@ def test_a_wrong_sensor_joint_is_one_line_naming_file_field_value_and_choices(tm
 def test_sensor_joints_default_to_the_joint_above_the_link_holding_the_grasp_frame():
     twin = ROOT / "scenarios/smoke/twin_arm_turn.yaml"
     spec = load_scenario(twin).robot
-    assert wrist_sensor_joints(spec, (twin.parent / spec.urdf).resolve()) == {"left": "l_ft_joint",
-                                                                              "right": "r_ft_joint"}
+    assert wrist_sensor_joints(spec, (twin.parent / spec.urdf).resolve()) == {
+        "left": "l_ft_joint",
+        "right": "r_ft_joint",
+    }
     eva = load_scenario(TABLE1).robot
-    assert wrist_sensor_joints(eva, (TABLE1.parent / eva.urdf).resolve()) == {"left": "LARM_TOOL_JOINT",
-                                                                              "right": "RARM_TOOL_JOINT"}
+    assert wrist_sensor_joints(eva, (TABLE1.parent / eva.urdf).resolve()) == {
+        "left": "LARM_TOOL_JOINT",
+        "right": "RARM_TOOL_JOINT",
+    }
 
 
 def test_the_force_low_pass_is_first_order_with_the_given_time_constant():
     from harmony_cli.maths.filters import LowPass
+
     dt, tau = 0.02, 0.05
     low = LowPass(tau, dt)
     assert np.allclose(low([0.0, 10.0]), [0.0, 10.0])  # starts at the first sample

@@ -46,36 +46,41 @@ class Replay:
         self.failures += not result.success
 
     def summary(self) -> dict:
-        return {"n_vars": self.mpc.problem.n_vars, "build_s": self.mpc.build_time, "failures": self.failures,
-                "qp": getattr(self.mpc.solver, "qp_name", None), "iterations": float(np.median(self.iterations)),
-                **time_stats_ms(self.times)}
+        return {
+            "n_vars": self.mpc.problem.n_vars,
+            "build_s": self.mpc.build_time,
+            "failures": self.failures,
+            "qp": getattr(self.mpc.solver, "qp_name", None),
+            "iterations": float(np.median(self.iterations)),
+            **time_stats_ms(self.times),
+        }
 
 
-def run_bench(path: Path, knots: list[int], solvers: list[str], steps: int, start: float,
-              out: Path | None = None, console: Console | None = None) -> dict:
-    console = console or Console(width=160)
+COLUMNS = ("solver", "transcription", "K", "vars", "median", "p95", "max", "iters", "failed")
+RATIOS = ("trad/bezier (median)", "K26/K6 (median)")
+
+
+def _interleaved(path: Path, knots: list[int], solvers: list[str], steps: int, start: float, console: Console) -> dict:
+    """Every (solver, transcription, K) replayed for `steps` steps, step k of each before step k + 1 of any, so
+    that drift in the machine's speed hits all alike; their summaries."""
     configs = [(s, tr, k) for s in solvers for k in knots for tr in TRANSCRIPTIONS]
     with Progress(console=console, transient=True) as bar:
         task = bar.add_task("building", total=len(configs))
         replays = {}
         for solver, tr, k in configs:
-            replays[(solver, tr, k)] = Replay(path, [f"mpc.transcription={tr}", f"mpc.knots={k}",
-                                                     f"solver.name={solver}"], start)
+            overrides = [f"mpc.transcription={tr}", f"mpc.knots={k}", f"solver.name={solver}"]
+            replays[(solver, tr, k)] = Replay(path, overrides, start)
             bar.advance(task)
-        # interleaved: step k of every configuration before step k + 1, so drift in machine speed hits all alike
         task = bar.add_task("solving", total=steps)
         for k in range(steps):
             for replay in replays.values():
                 replay.step(k)
             bar.advance(task)
-    results = {config: replay.summary() for config, replay in replays.items()}
+    return {config: replay.summary() for config, replay in replays.items()}
 
-    title = f"Whole-body MPC solve time (ms), {steps} steps each, configurations interleaved step by step"
-    columns = ("solver", "transcription", "K", "vars", "median", "p95", "max", "iters", "failed",
-               "trad/bezier (median)", "K26/K6 (median)")
-    table = Table(title=title)
-    for col in columns:
-        table.add_column(col, justify="right")
+
+def _rows(results: dict, knots: list[int]) -> list[list[str]]:
+    """One row per configuration with the trad/bezier and largest/smallest K ratios of the medians."""
     rows = []
     for (solver, tr, k), r in results.items():
         other = results.get((solver, "bezier", k)) if tr == "traditional" else None
@@ -83,15 +88,36 @@ def run_bench(path: Path, knots: list[int], solvers: list[str], steps: int, star
         small, large = results.get((solver, tr, min(knots))), results.get((solver, tr, max(knots)))
         ratio_k = f"{large['median'] / small['median']:.2f}" if k == max(knots) and small and len(knots) > 1 else ""
         label = f"{solver} ({r['qp']})" if r["qp"] else solver
-        rows.append([label, tr, str(k), str(r["n_vars"]), f"{r['median']:.2f}", f"{r['p95']:.2f}",
-                     f"{r['max']:.2f}", f"{r['iterations']:.0f}", str(r["failures"]), ratio_tb, ratio_k])
-        table.add_row(*rows[-1])
+        times = [f"{r[key]:.2f}" for key in ("median", "p95", "max")]
+        rows.append([label, tr, str(k), str(r["n_vars"]), *times, f"{r['iterations']:.0f}", str(r["failures"])])
+        rows[-1] += [ratio_tb, ratio_k]
+    return rows
+
+
+def run_bench(
+    path: Path,
+    knots: list[int],
+    solvers: list[str],
+    steps: int,
+    start: float,
+    out: Path | None = None,
+    console: Console | None = None,
+) -> dict:
+    console = console or Console(width=160)
+    results = _interleaved(path, knots, solvers, steps, start, console)
+    title = f"Whole-body MPC solve time (ms), {steps} steps each, configurations interleaved step by step"
+    columns, rows = COLUMNS + RATIOS, _rows(results, knots)
+    table = Table(title=title)
+    for col in columns:
+        table.add_column(col, justify="right")
+    for row in rows:
+        table.add_row(*row)
     console.print(table)
     meta = machine_meta(1)
     machine = f"{meta['cpu']}, {meta['cores']} cores, git {meta['git_sha']}"
     console.print(machine)
-    report = {"meta": meta, "steps": steps,
-              "results": [{"solver": s, "transcription": tr, "knots": k, **r} for (s, tr, k), r in results.items()]}
+    listed = [{"solver": s, "transcription": tr, "knots": k, **r} for (s, tr, k), r in results.items()]
+    report = {"meta": meta, "steps": steps, "results": listed}
     if out:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json.dumps(report, indent=2))
@@ -115,8 +141,11 @@ def run_loop_bench(path: Path, out: Path | None = None, console: Console | None 
         run_dir = run_scenario(path, [], Path(tmp) / "run", progress=True)
         steps = pd.read_csv(run_dir / "steps.csv")
         summary = json.loads((run_dir / "summary.json").read_text())
-    parts = {"full loop (planner + whole-body MPC)": steps["loop_ms"], "planner": steps["planner_ms"].dropna(),
-             "whole-body MPC": steps["solve_ms"]}
+    parts = {
+        "full loop (planner + whole-body MPC)": steps["loop_ms"],
+        "planner": steps["planner_ms"].dropna(),
+        "whole-body MPC": steps["solve_ms"],
+    }
     stats = {name: time_stats_ms(values) for name, values in parts.items()}
     table = Table(title=f"{summary['name']}: {len(steps)} control steps closed loop in PyBullet (ms)")
     for col in ("", "median", "p95", "max", "steps"):
@@ -125,10 +154,17 @@ def run_loop_bench(path: Path, out: Path | None = None, console: Console | None 
         table.add_row(name, f"{st['median']:.2f}", f"{st['p95']:.2f}", f"{st['max']:.2f}", str(len(parts[name])))
     console.print(table)
     task = summary.get("task", {})
-    console.print(f"task success {task.get('success')}; the loop ran at {1e3 / stats[next(iter(stats))]['median']:.0f} Hz "
-                  f"median (the paper: 50 Hz)")
-    report = {"scenario": str(path), "meta": machine_meta(1), "steps": len(steps), "stats_ms": stats,
-              "success": task.get("success")}
+    console.print(
+        f"task success {task.get('success')}; the loop ran at {1e3 / stats[next(iter(stats))]['median']:.0f} Hz "
+        f"median (the paper: 50 Hz)"
+    )
+    report = {
+        "scenario": str(path),
+        "meta": machine_meta(1),
+        "steps": len(steps),
+        "stats_ms": stats,
+        "success": task.get("success"),
+    }
     if out:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json.dumps(report, indent=2))

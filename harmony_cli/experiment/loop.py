@@ -16,9 +16,18 @@ from harmony_cli.tasks.targets import References
 Watch = Callable[[float, Observation, Truth], dict]  # logged fields from ground truth (e.g. the box: dropped?)
 
 
-def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duration: float, control_dt: float,
-             substeps: int, record: Callable[[dict], None], on_step: Callable[[int, int], None] = lambda i, n: None,
-             watch: Watch | None = None, predict: Predictor | None = None) -> None:
+def run_loop(
+    mpc: WholeBodyMPC,
+    sim: Simulation,
+    references: References,
+    duration: float,
+    control_dt: float,
+    substeps: int,
+    record: Callable[[dict], None],
+    on_step: Callable[[int, int], None] = lambda i, n: None,
+    watch: Watch | None = None,
+    predict: Predictor | None = None,
+) -> None:
     """Run the whole scenario; every step's record goes to `record` as soon as it exists (nothing is lost).
 
     `loop_ms` is the wall time from the observation to the command: references (planner) + obstacle prediction +
@@ -32,8 +41,9 @@ def run_loop(mpc: WholeBodyMPC, sim: Simulation, references: References, duratio
         targets = references(t, obs, mpc.knot_times)
         if predict is not None:
             mpc.set_obstacle_centres(predict(t + mpc.knot_times))
-        command, result = mpc.step(obs.q, hand_rows(targets.positions, targets.rotations), targets.force_ref,
-                                   obs.pad_forces)
+        command, result = mpc.step(
+            obs.q, hand_rows(targets.positions, targets.rotations), targets.force_ref, obs.pad_forces
+        )
         loop_ms = 1e3 * (time.perf_counter() - start)
         truth = sim.truth()
         watched = watch(t, obs, truth) if watch else {}

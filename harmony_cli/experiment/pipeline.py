@@ -68,11 +68,17 @@ def build(scenario: Scenario, scenario_dir: Path) -> Built:
 def describe(scenario: Scenario, built: Built) -> dict:
     """The summary's description of what was built."""
     mpc = built.mpc
-    return {"transcription": scenario.mpc.transcription, "knots": scenario.mpc.knots,
-            "control_points": scenario.mpc.control_points if scenario.mpc.transcription == "bezier" else None,
-            "horizon_s": scenario.mpc.horizon, "solver": scenario.solver.name,
-            "decision_variables": mpc.problem.n_vars, "decision_label": mpc.transcription.decision_label,
-            "n_dof": built.robot.n_dof, "build_time_s": mpc.build_time}
+    return {
+        "transcription": scenario.mpc.transcription,
+        "knots": scenario.mpc.knots,
+        "control_points": scenario.mpc.control_points if scenario.mpc.transcription == "bezier" else None,
+        "horizon_s": scenario.mpc.horizon,
+        "solver": scenario.solver.name,
+        "decision_variables": mpc.problem.n_vars,
+        "decision_label": mpc.transcription.decision_label,
+        "n_dof": built.robot.n_dof,
+        "build_time_s": mpc.build_time,
+    }
 
 
 def solver_paths(built: Built) -> dict[str, str]:
@@ -83,8 +89,9 @@ def solver_paths(built: Built) -> dict[str, str]:
     return paths
 
 
-def simulate(built: Built, scenario: Scenario, rows: list[dict], log: IO[str], recorder: VideoRecorder | None,
-             progress: bool) -> float:
+def simulate(
+    built: Built, scenario: Scenario, rows: list[dict], log: IO[str], recorder: VideoRecorder | None, progress: bool
+) -> float:
     """The closed loop, every step's record appended to `rows` as it exists; returns the wall time [s]."""
     every = frame_every(scenario.sim.control_dt, VIDEO_FPS)
 
@@ -99,12 +106,28 @@ def simulate(built: Built, scenario: Scenario, rows: list[dict], log: IO[str], r
             recorder.capture()
 
     sim = scenario.sim
-    with Progress(TextColumn(f"[bold]{scenario.name}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                  TimeRemainingColumn(), disable=not progress, transient=False) as bar:
+    with Progress(
+        TextColumn(f"[bold]{scenario.name}"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total}"),
+        TimeRemainingColumn(),
+        disable=not progress,
+        transient=False,
+    ) as bar:
         task = bar.add_task("run", total=int(round(sim.duration / sim.control_dt)))
         start = time.perf_counter()
-        run_loop(built.mpc, built.sim, built.references, sim.duration, sim.control_dt, sim.substeps, record,
-                 lambda done, total: bar.update(task, completed=done), built.watch, built.predict)
+        run_loop(
+            built.mpc,
+            built.sim,
+            built.references,
+            sim.duration,
+            sim.control_dt,
+            sim.substeps,
+            record,
+            lambda done, total: bar.update(task, completed=done),
+            built.watch,
+            built.predict,
+        )
     return time.perf_counter() - start
 
 
@@ -112,12 +135,24 @@ def _recorder(built: Built, video: Path | None) -> VideoRecorder | None:
     if video is None:
         return None
     base = list(built.robot.base_joints[:2])
-    return VideoRecorder(built.sim.client, video, fps=VIDEO_FPS, size=VIDEO_SIZE,
-                         follow=lambda: built.sim.observe().q[base].tolist() + [0.6])
+    return VideoRecorder(
+        built.sim.client,
+        video,
+        fps=VIDEO_FPS,
+        size=VIDEO_SIZE,
+        follow=lambda: built.sim.observe().q[base].tolist() + [0.6],
+    )
 
 
-def write_results(out: Path, scenario: Scenario, scenario_dir: Path, rows: list[dict], summary: dict, meta: dict,
-                  twin: pd.DataFrame | None) -> pd.DataFrame:
+def write_results(
+    out: Path,
+    scenario: Scenario,
+    scenario_dir: Path,
+    rows: list[dict],
+    summary: dict,
+    meta: dict,
+    twin: pd.DataFrame | None,
+) -> pd.DataFrame:
     """steps.csv (with push displacements from the twin), the summary's metrics, summary.json and meta.json."""
     steps = pd.DataFrame(rows)
     hands = list(scenario.robot.end_effectors)
@@ -126,16 +161,28 @@ def write_results(out: Path, scenario: Scenario, scenario_dir: Path, rows: list[
     steps.to_csv(out / "steps.csv", index=False)
     if len(steps):
         urdf = (scenario_dir / scenario.robot.urdf).resolve()
-        pushed = {p.name: hand_below(p.link, urdf, scenario.robot.end_effectors)
-                  if p.body == "robot" and p.link is not None else None for p in scenario.pushes}
+        pushed = {
+            p.name: hand_below(p.link, urdf, scenario.robot.end_effectors)
+            if p.body == "robot" and p.link is not None
+            else None
+            for p in scenario.pushes
+        }
         summary |= summarise_run(steps, scenario, hands, pushed)
     (out / "meta.json").write_text(json.dumps(meta, indent=2))
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     return steps
 
 
-def execute(scenario: Scenario, scenario_dir: Path, out: Path, progress: bool = True, concurrency: int = 1,
-            video: Path | None = None, twin: pd.DataFrame | None = None, twin_info: dict | None = None) -> Path:
+def execute(
+    scenario: Scenario,
+    scenario_dir: Path,
+    out: Path,
+    progress: bool = True,
+    concurrency: int = 1,
+    video: Path | None = None,
+    twin: pd.DataFrame | None = None,
+    twin_info: dict | None = None,
+) -> Path:
     """Build, simulate, summarise and plot one run into `out` (its inputs already written there)."""
     meta = machine_meta(concurrency) | {"seed": scenario.seed}
     summary: dict = {"name": scenario.name, "status": "running"} | ({"push_free_twin": twin_info} if twin_info else {})
@@ -146,8 +193,10 @@ def execute(scenario: Scenario, scenario_dir: Path, out: Path, progress: bool = 
         built = build(scenario, scenario_dir)
         summary |= describe(scenario, built)
         meta["solver_paths"] = solver_paths(built)
-        log.write(f"built whole-body MPC: {built.mpc.problem.n_vars} decision variables in "
-                  f"{built.mpc.build_time:.2f} s\n" + "".join(f"{k}: {v}\n" for k, v in meta["solver_paths"].items()))
+        log.write(
+            f"built whole-body MPC: {built.mpc.problem.n_vars} decision variables in "
+            f"{built.mpc.build_time:.2f} s\n" + "".join(f"{k}: {v}\n" for k, v in meta["solver_paths"].items())
+        )
         recorder = _recorder(built, video)
         summary["wall_time_s"] = simulate(built, scenario, rows, log, recorder, progress)
         built.sim.close()

@@ -34,8 +34,9 @@ def _git_sha() -> str:
     here = Path(__file__).resolve().parent
     try:
         sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
-                               capture_output=True, text=True).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"], cwd=here, capture_output=True, text=True
+        ).stdout.strip()
         return (sha + ("-dirty" if dirty else "")) or "unknown"
     except OSError:
         return "unknown"
@@ -58,6 +59,13 @@ def machine_meta(concurrency: int) -> dict:
             versions[pkg] = metadata.version(pkg)
         except metadata.PackageNotFoundError:
             versions[pkg] = "absent"
-    return {"python": platform.python_version(), "packages": versions, "git_sha": _git_sha(), "cpu": _cpu(),
-            "cores": os.cpu_count(), "host": platform.node(), "concurrency": concurrency,
-            "started": datetime.now().isoformat(timespec="seconds")}
+    return {
+        "python": platform.python_version(),
+        "packages": versions,
+        "git_sha": _git_sha(),
+        "cpu": _cpu(),
+        "cores": os.cpu_count(),
+        "host": platform.node(),
+        "concurrency": concurrency,
+        "started": datetime.now().isoformat(timespec="seconds"),
+    }

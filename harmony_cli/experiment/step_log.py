@@ -13,12 +13,30 @@ from harmony_cli.sim.simulation import Truth
 from harmony_cli.tasks.targets import HandTargets
 
 
-def step_record(step: int, t: float, loop_ms: float, mpc: WholeBodyMPC, obs: Observation, targets: HandTargets,
-                command: Command, result: SolveResult, truth: Truth, watched: dict) -> dict:
+def step_record(
+    step: int,
+    t: float,
+    loop_ms: float,
+    mpc: WholeBodyMPC,
+    obs: Observation,
+    targets: HandTargets,
+    command: Command,
+    result: SolveResult,
+    truth: Truth,
+    watched: dict,
+) -> dict:
     robot = mpc.robot
-    row = {"step": step, "t": t, "solve_ms": 1e3 * result.solve_time, "build_ms": 1e3 * result.build_time,
-           "loop_ms": loop_ms, "status": result.status, "success": result.success, "held_last_plan": command.held,
-           "iterations": result.iterations}
+    row = {
+        "step": step,
+        "t": t,
+        "solve_ms": 1e3 * result.solve_time,
+        "build_ms": 1e3 * result.build_time,
+        "loop_ms": loop_ms,
+        "status": result.status,
+        "success": result.success,
+        "held_last_plan": command.held,
+        "iterations": result.iterations,
+    }
     row |= targets.log | watched
     row |= {f"cost_{k}": v for k, v in result.cost_terms.items()}
     row["constraint_violation"] = result.max_violation
@@ -37,8 +55,9 @@ def step_record(step: int, t: float, loop_ms: float, mpc: WholeBodyMPC, obs: Obs
     return row
 
 
-def _hand(hand: str, h: int, obs: Observation, targets: HandTargets, command: Command, force_seen: np.ndarray,
-          truth: Truth) -> dict:
+def _hand(
+    hand: str, h: int, obs: Observation, targets: HandTargets, command: Command, force_seen: np.ndarray, truth: Truth
+) -> dict:
     """A hand's reference and measured position, errors, sensed forces and, with admittance, its force loop."""
     row = {f"{hand}_ref_{a}": v for a, v in zip("xyz", targets.now[h])}
     row |= {f"{hand}_meas_{a}": v for a, v in zip("xyz", obs.hand_positions[h])}

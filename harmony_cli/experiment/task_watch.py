@@ -21,8 +21,10 @@ class TaskWatch:
     def __call__(self, t: float, obs: Observation, truth: Truth) -> dict:
         """Goal errors and the box's state (drop: a held box touching no robot link for DROP_AFTER)."""
         schedule = self.references.schedule
-        row = {f"{name}_goal_error_m": float(np.linalg.norm(obs.hand_positions[h] - self.references.goal[h]))
-               for h, name in enumerate(schedule.hand_names)}
+        row = {
+            f"{name}_goal_error_m": float(np.linalg.norm(obs.hand_positions[h] - self.references.goal[h]))
+            for h, name in enumerate(schedule.hand_names)
+        }
         if truth.box_position is None or truth.box_z_axis is None:
             return row
         holding, centre, touching = schedule.holding(t), truth.box_position, truth.box_touches_robot
@@ -33,6 +35,12 @@ class TaskWatch:
         if self.loose_since is not None and t - self.loose_since >= DROP_AFTER and self.dropped_at is None:
             self.dropped_at = t
         tilt = float(np.degrees(np.arccos(np.clip(truth.box_z_axis[2], -1, 1))))
-        return row | {"box_x": centre[0], "box_y": centre[1], "box_z": centre[2], "box_tilt_deg": tilt,
-                      "box_from_hands_m": float(np.linalg.norm(centre - obs.hand_positions.mean(axis=0))),
-                      "box_touches_robot": touching, "dropped": self.dropped_at is not None}
+        return row | {
+            "box_x": centre[0],
+            "box_y": centre[1],
+            "box_z": centre[2],
+            "box_tilt_deg": tilt,
+            "box_from_hands_m": float(np.linalg.norm(centre - obs.hand_positions.mean(axis=0))),
+            "box_touches_robot": touching,
+            "dropped": self.dropped_at is not None,
+        }

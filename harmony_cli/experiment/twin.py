@@ -24,8 +24,9 @@ def push_free(scenario: Scenario) -> tuple[Scenario, list[str]]:
     return twin, ["pushes=[]", f"sim.duration={duration!r}"]
 
 
-def run_push_free_twin(path: Path, overrides: list[str], scenario: Scenario, out: Path, progress: bool,
-                       concurrency: int) -> tuple[pd.DataFrame | None, dict]:
+def run_push_free_twin(
+    path: Path, overrides: list[str], scenario: Scenario, out: Path, progress: bool, concurrency: int
+) -> tuple[pd.DataFrame | None, dict]:
     """Run the twin into `out` (a run directory of its own); its steps, or None with why if it failed."""
     twin, extra = push_free(scenario)
     write_inputs(out, path, list(overrides) + extra, twin)
@@ -33,5 +34,4 @@ def run_push_free_twin(path: Path, overrides: list[str], scenario: Scenario, out
         execute(twin, path.parent, out, progress, concurrency)
     except RunFailed as exc:
         return None, {"dir": str(out), "status": "failed", "error": str(exc)}
-    return pd.read_csv(out / "steps.csv"), {"dir": str(out), "status": "completed",
-                                            "duration_s": twin.sim.duration}
+    return pd.read_csv(out / "steps.csv"), {"dir": str(out), "status": "completed", "duration_s": twin.sim.duration}

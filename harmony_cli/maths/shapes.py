@@ -35,8 +35,9 @@ class Shape:
 
     def _to_world(self, vectors: np.ndarray) -> np.ndarray:
         c, s = np.cos(self.yaw), np.sin(self.yaw)
-        return np.stack([c * vectors[:, 0] - s * vectors[:, 1], s * vectors[:, 0] + c * vectors[:, 1],
-                         vectors[:, 2]], axis=1)
+        return np.stack(
+            [c * vectors[:, 0] - s * vectors[:, 1], s * vectors[:, 0] + c * vectors[:, 1], vectors[:, 2]], axis=1
+        )
 
     def distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Signed distance (n,) of points (n, 3) to the surface (negative inside) and its gradient (n, 3)."""

@@ -13,6 +13,7 @@ import numpy as np
 
 from harmony_cli.cache import CACHE_DIR
 
+
 def shared_library(name: str, source: str) -> Path:
     """C source built with gcc -O1 (1-3 s once) and cached on disk by content; raises if gcc is missing."""
     library = CACHE_DIR / f"{name}_{hashlib.sha256(source.encode()).hexdigest()[:20]}.so"
@@ -20,8 +21,13 @@ def shared_library(name: str, source: str) -> Path:
         CACHE_DIR.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryDirectory(dir=CACHE_DIR) as tmp:
             Path(tmp, "f.c").write_text(source)
-            subprocess.run(["gcc", "-O1", "-shared", "-fPIC", "f.c", "-o", "f.so"], cwd=tmp, check=True,
-                           capture_output=True, timeout=120)
+            subprocess.run(
+                ["gcc", "-O1", "-shared", "-fPIC", "f.c", "-o", "f.so"],
+                cwd=tmp,
+                check=True,
+                capture_output=True,
+                timeout=120,
+            )
             os.replace(Path(tmp, "f.so"), library)  # atomic: concurrent processes never load half a file
     return library
 

@@ -64,7 +64,7 @@ class GaussNewtonSolver:
         build_time = start - built  # microseconds unless this pattern is new
         x = np.clip(x0, lbx, ubx)  # the fixed variables are exact from here on
         status, success = "max_iter", False
-        for it in range(1, self.max_iter + 1):
+        for it in range(1, self.max_iter + 1):  # noqa: B007 - the count is returned
             _, g, vals = self.model.evaluate(x, p)
             h = vals[kept]
             h[diagonal] += self.regularisation
@@ -84,5 +84,16 @@ class GaussNewtonSolver:
             elif np.max(np.abs(out["x"])) < self.tol:
                 status, success = "converged", True
                 break
-        return SolveResult(x, success, status, it, time.perf_counter() - start, build_time, self.path, self.problem,
-                           p.copy(), lbx.copy(), ubx.copy())
+        return SolveResult(
+            x,
+            success,
+            status,
+            it,
+            time.perf_counter() - start,
+            build_time,
+            self.path,
+            self.problem,
+            p.copy(),
+            lbx.copy(),
+            ubx.copy(),
+        )

@@ -27,11 +27,17 @@ class KnotDerivatives:
         q, ref = (cs.SX.sym(name, problem.task_residual.size1_in(i)) for i, name in enumerate(("q", "ref")))
         r = problem.task_residual(q, ref)
         self.n_dof, self.m, self.n_vars, nd = q.numel(), r.numel(), n, q.numel()
-        knot_maps = {"value": [r], "gradient": [r, cs.densify(cs.jacobian(r, q).T)],
-                     "hessian": [cs.densify(cs.hessian(cs.sumsqr(r), q)[0])]}
+        knot_maps = {
+            "value": [r],
+            "gradient": [r, cs.densify(cs.jacobian(r, q).T)],
+            "hessian": [cs.densify(cs.hessian(cs.sumsqr(r), q)[0])],
+        }
         # line-search trial points need f only, gradients r and J; the exact per-knot Hessians cost the most
-        self.knot_functions = {kind: cs.Function(f"harmony_{kind}", [q, ref], outs).map(K)
-                               for kind, outs in knot_maps.items() if kind != "hessian" or exact}
+        self.knot_functions = {
+            kind: cs.Function(f"harmony_{kind}", [q, ref], outs).map(K)
+            for kind, outs in knot_maps.items()
+            if kind != "hessian" or exact
+        }
         maps = {kind: compiled(f) for kind, f in self.knot_functions.items()}
         self.code_path = code_path(maps["value"])  # compiled C, or CasADi's VM without gcc
         self.knots = {kind: Buffered(f) for kind, f in maps.items()}
@@ -130,8 +136,13 @@ class KnotConstraints:
         rows = compiled(cs.Function("harmony_clearance", [q, ref], [h, cs.densify(J.T)]).map(K))
         self.code_path, self.map = code_path(rows), Buffered(rows)
         lam = cs.SX.sym("lam", self.m)
-        self.curvature_map = Buffered(compiled(cs.Function(
-            "harmony_clearance_hessian", [q, ref, lam], [cs.densify(cs.hessian(cs.dot(lam, h), q)[0])]).map(K)))
+        self.curvature_map = Buffered(
+            compiled(
+                cs.Function(
+                    "harmony_clearance_hessian", [q, ref, lam], [cs.densify(cs.hessian(cs.dot(lam, h), q)[0])]
+                ).map(K)
+            )
+        )
         structural = np.array(cs.DM(J.sparsity(), 1)) != 0  # m x nd: which joints each constraint depends on
         self.pattern = np.zeros((self.n_rows, n), dtype=bool)  # x = [vec(positions) (nd * npos); anything else]
         self.pattern[:, : nd * npos] = np.einsum("ka,ji->kjai", self.B[1:] != 0, structural).reshape(self.n_rows, -1)
@@ -155,6 +166,7 @@ class KnotConstraints:
     def curvature(self, x: np.ndarray, p: np.ndarray, lam: np.ndarray) -> np.ndarray:
         """Per-knot Hessians of lam . h with respect to q_k (K x n_dof^2; knot 0 has no rows: zero)."""
         (K, npos), nd = self.B.shape, self.n_dof
-        out = self.curvature_map(i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p,
-                                 i2=np.r_[np.zeros(self.m), lam])
+        out = self.curvature_map(
+            i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p, i2=np.r_[np.zeros(self.m), lam]
+        )
         return out["o0"].reshape(K, nd * nd).copy()

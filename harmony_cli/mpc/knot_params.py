@@ -55,15 +55,22 @@ class KnotLayout:
     def force_meas(self, h: int) -> int:
         return self.hands_end + POSE_ROWS * self.n_obstacles + self.n_hands + h
 
-    def stack(self, hands: np.ndarray, obstacle_poses: np.ndarray, force_ref: np.ndarray | None = None,
-              force_meas: np.ndarray | None = None) -> np.ndarray:
+    def stack(
+        self,
+        hands: np.ndarray,
+        obstacle_poses: np.ndarray,
+        force_ref: np.ndarray | None = None,
+        force_meas: np.ndarray | None = None,
+    ) -> np.ndarray:
         """The parameter vector vec(rows x K): hands (12 hands x K, see hand_rows), obstacle poses (4 obstacles
         x K), and when compliant the force references (hands x K) and measured forces (hands,) held over K."""
         rows = [hands, obstacle_poses]
         if self.compliant:
             K = hands.shape[1]
-            rows += [np.zeros((self.n_hands, K)) if force_ref is None else force_ref,
-                     np.tile(np.zeros(self.n_hands) if force_meas is None else force_meas, (K, 1)).T]
+            rows += [
+                np.zeros((self.n_hands, K)) if force_ref is None else force_ref,
+                np.tile(np.zeros(self.n_hands) if force_meas is None else force_meas, (K, 1)).T,
+            ]
         return np.vstack(rows).ravel(order="F")
 
 

@@ -186,14 +186,35 @@ def native_oracle(model: KnotDerivatives, n_p: int) -> cs.Function | None:
     colind = np.r_[0, np.cumsum(np.bincount(model.cols, minlength=n))]
     hessians = (EXACT_HESSIANS if model.exact else GAUSS_NEWTON_HESSIANS).format(**names)
     source = cg.dump() + ASSEMBLY.format(
-        nd=model.n_dof, npos=npos, K=K, m=model.m, n=n, n_p=n_p, npairs=model.W.shape[0], nnz=model.rows.size,
-        nlin=L.shape[0], sz_arg=max(f.sz_arg() for f in maps.values()), sz_res=max(f.sz_res() for f in maps.values()),
-        sz_iw=max(f.sz_iw() for f in maps.values()), sz_w=max(f.sz_w() for f in maps.values()),
-        B=_c_array(model.B), W=_c_array(model.W), nl_index=_c_array(model.nl_index),
-        lin_vals=_c_array(model.lin_vals), L_ptr=_c_array(L.indptr), L_ind=_c_array(L.indices),
-        L_val=_c_array(L.data), c=_c_array(model.c), S_ptr=_c_array(S.indptr), S_ind=_c_array(S.indices),
-        S_val=_c_array(S.data), h_colind=_c_array(colind), h_rows=_c_array(model.rows),
-        knot_hessians=hessians, **names)
+        nd=model.n_dof,
+        npos=npos,
+        K=K,
+        m=model.m,
+        n=n,
+        n_p=n_p,
+        npairs=model.W.shape[0],
+        nnz=model.rows.size,
+        nlin=L.shape[0],
+        sz_arg=max(f.sz_arg() for f in maps.values()),
+        sz_res=max(f.sz_res() for f in maps.values()),
+        sz_iw=max(f.sz_iw() for f in maps.values()),
+        sz_w=max(f.sz_w() for f in maps.values()),
+        B=_c_array(model.B),
+        W=_c_array(model.W),
+        nl_index=_c_array(model.nl_index),
+        lin_vals=_c_array(model.lin_vals),
+        L_ptr=_c_array(L.indptr),
+        L_ind=_c_array(L.indices),
+        L_val=_c_array(L.data),
+        c=_c_array(model.c),
+        S_ptr=_c_array(S.indptr),
+        S_ind=_c_array(S.indices),
+        S_val=_c_array(S.data),
+        h_colind=_c_array(colind),
+        h_rows=_c_array(model.rows),
+        knot_hessians=hessians,
+        **names,
+    )
     try:
         return cs.external("harmony_oracle", str(shared_library("harmony_oracle", source)))
     except (OSError, subprocess.SubprocessError, RuntimeError):

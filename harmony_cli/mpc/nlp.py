@@ -6,7 +6,6 @@ Speed: derivatives come from the knot structure (per-knot C code), fixed variabl
 arrays cross into CasADi without copies.
 """
 
-
 from __future__ import annotations
 
 import time
@@ -37,13 +36,24 @@ class NlpSolver:
         defaults = {"print_time": False, "record_time": True, "calc_lam_p": False}
         if plugin == "ipopt":  # warm-started: a small initial barrier takes 3 iterations, not 5-12, to the optimum;
             # MUMPS's scaling (MC64) costs ~2 ms per solve and our KKT systems are well scaled (make bench)
-            defaults |= {"ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.warm_start_init_point": "yes",
-                         "ipopt.mu_init": 1e-6, "ipopt.warm_start_bound_push": 1e-6,
-                         "ipopt.warm_start_mult_bound_push": 1e-6, "ipopt.mumps_permuting_scaling": 0,
-                         "ipopt.mumps_scaling": 0}
+            defaults |= {
+                "ipopt.print_level": 0,
+                "ipopt.sb": "yes",
+                "ipopt.warm_start_init_point": "yes",
+                "ipopt.mu_init": 1e-6,
+                "ipopt.warm_start_bound_push": 1e-6,
+                "ipopt.warm_start_mult_bound_push": 1e-6,
+                "ipopt.mumps_permuting_scaling": 0,
+                "ipopt.mumps_scaling": 0,
+            }
         elif plugin in ("sqpmethod", "feasiblesqpmethod"):
-            defaults |= {"print_header": False, "print_iteration": False, "print_status": False,
-                         "qpsol": "qrqp", "qpsol_options": {"print_iter": False, "print_header": False}}
+            defaults |= {
+                "print_header": False,
+                "print_iteration": False,
+                "print_status": False,
+                "qpsol": "qrqp",
+                "qpsol_options": {"print_iter": False, "print_header": False},
+            }
         self.problem, self.plugin, self.options = problem, plugin, defaults | options
         model = KnotDerivatives(problem, exact=hessian == "exact")
         self.native = native_oracle(model, problem.p.numel())
@@ -53,12 +63,19 @@ class NlpSolver:
         self.constraints = KnotConstraints(problem) if problem.constraint is not None else None
         self.n_rows = 0 if self.constraints is None else self.constraints.n_rows
         if self.constraints is not None:
-            self.constraint_oracle = [ConstraintOracle(self.constraints, model, kind, problem.p.numel())
-                                      for kind in ("jac", "hess")]
-        cost = f"native C oracle ({model.code_path} per-knot maps)" if self.native is not None else \
-            f"Python callbacks ({model.code_path} per-knot maps; no gcc for the native oracle)"
-        rows = "" if self.constraints is None else \
-            f", clearance rows through Python callbacks ({self.constraints.code_path} per-knot maps)"
+            self.constraint_oracle = [
+                ConstraintOracle(self.constraints, model, kind, problem.p.numel()) for kind in ("jac", "hess")
+            ]
+        cost = (
+            f"native C oracle ({model.code_path} per-knot maps)"
+            if self.native is not None
+            else f"Python callbacks ({model.code_path} per-knot maps; no gcc for the native oracle)"
+        )
+        rows = (
+            ""
+            if self.constraints is None
+            else f", clearance rows through Python callbacks ({self.constraints.code_path} per-knot maps)"
+        )
         self.path = f"{plugin}: cost through the {cost}{rows}"
         self.lam_x, self.lam_g = np.zeros(problem.n_vars), np.zeros(problem.A.shape[0] + self.n_rows)
         self._solvers = {}
@@ -82,19 +99,21 @@ class NlpSolver:
             if self.constraints is not None:  # clearance rows
                 h, dh = self.constraint_oracle[0](x, p)
                 g, jac = cs.vertcat(g, h), cs.vertcat(jac, dh[:, idx])
-                hess_lag += self.constraint_oracle[1](x, p, lam_g[r.a.size:])[idx, idx]
+                hess_lag += self.constraint_oracle[1](x, p, lam_g[r.a.size :])[idx, idx]
             triu = cs.triu if self.plugin in ("ipopt", "bonmin", "knitro") else (lambda h: h)  # their convention
             derivatives = {  # whichever of these the plugin takes
                 "grad_f": cs.Function("grad_f", [z, pe], [f_grad, grad]),
                 "jac_g": cs.Function("jac_g", [z, pe], [g, jac]),
                 "jac_fg": cs.Function("jac_fg", [z, pe], [f_grad, grad, g, jac]),
-                "hess_lag": cs.Function("hess_lag", [z, pe, lam_f, lam_g], [triu(hess_lag)])}
+                "hess_lag": cs.Function("hess_lag", [z, pe, lam_f, lam_g], [triu(hess_lag)]),
+            }
             options = self.options | {k: v for k, v in derivatives.items() if k in cs.nlpsol_options(self.plugin)}
             try:
                 solver = Buffered(cs.nlpsol("mpc", self.plugin, {"x": z, "p": pe, "f": f, "g": g}, options))
             except RuntimeError as exc:
-                raise SolverUnavailable(f"solver.name: {self.plugin!r} failed to initialise: "
-                                        f"{str(exc).splitlines()[-1]}") from None
+                raise SolverUnavailable(
+                    f"solver.name: {self.plugin!r} failed to initialise: {str(exc).splitlines()[-1]}"
+                ) from None
             self._solvers[free.tobytes()] = solver, r
         return self._solvers[free.tobytes()]
 
@@ -110,16 +129,34 @@ class NlpSolver:
         if self.constraints is not None:
             lower = self.constraints.lower(np.where(free, x0, lbx), p)
             lbg, ubg = np.r_[lbg, lower], np.r_[ubg, np.full(self.n_rows, np.inf)]
-        out = solver(x0=x0[free], lbx=lbx[free], ubx=ubx[free], lbg=lbg, ubg=ubg, p=np.r_[p, lbx[~free]],
-                     lam_x0=self.lam_x[free], lam_g0=self.lam_g[rows])
+        out = solver(
+            x0=x0[free],
+            lbx=lbx[free],
+            ubx=ubx[free],
+            lbg=lbg,
+            ubg=ubg,
+            p=np.r_[p, lbx[~free]],
+            lam_x0=self.lam_x[free],
+            lam_g0=self.lam_g[rows],
+        )
         stats = solver.stats()
         x[free] = out["x"]
         if stats["success"]:
             self.lam_x[:], self.lam_g[:] = 0.0, 0.0
             self.lam_x[free], self.lam_g[rows] = out["lam_x"], out["lam_g"]
-        return SolveResult(x, bool(stats["success"]), str(stats["return_status"]), int(stats.get("iter_count", -1)),
-                           time.perf_counter() - start, build_time, self.path, self.problem, p.copy(), lbx.copy(),
-                           ubx.copy())
+        return SolveResult(
+            x,
+            bool(stats["success"]),
+            str(stats["return_status"]),
+            int(stats.get("iter_count", -1)),
+            time.perf_counter() - start,
+            build_time,
+            self.path,
+            self.problem,
+            p.copy(),
+            lbx.copy(),
+            ubx.copy(),
+        )
 
 
 class SymbolicNlpSolver:
@@ -138,8 +175,9 @@ class SymbolicNlpSolver:
         try:
             self.solver = cs.nlpsol("mpc", plugin, nlp, {"print_time": False} | options)
         except RuntimeError as exc:
-            raise SolverUnavailable(f"solver.name: {plugin!r} failed to initialise: "
-                                    f"{str(exc).splitlines()[-1]}") from None
+            raise SolverUnavailable(
+                f"solver.name: {plugin!r} failed to initialise: {str(exc).splitlines()[-1]}"
+            ) from None
         self.problem = problem
         self.path = f"{plugin}: CasADi AD on the whole symbolic problem" + (f" ({reason})" if reason else "")
         self.lam_x, self.lam_g = np.zeros(problem.n_vars), np.zeros(g.numel())
@@ -155,6 +193,16 @@ class SymbolicNlpSolver:
         stats = self.solver.stats()
         if stats["success"]:
             self.lam_x, self.lam_g = np.array(out["lam_x"]).ravel(), np.array(out["lam_g"]).ravel()
-        return SolveResult(np.array(out["x"]).ravel(), bool(stats["success"]), str(stats["return_status"]),
-                           int(stats.get("iter_count", -1)), elapsed, 0.0, self.path, self.problem, p.copy(),
-                           lbx.copy(), ubx.copy())
+        return SolveResult(
+            np.array(out["x"]).ravel(),
+            bool(stats["success"]),
+            str(stats["return_status"]),
+            int(stats.get("iter_count", -1)),
+            elapsed,
+            0.0,
+            self.path,
+            self.problem,
+            p.copy(),
+            lbx.copy(),
+            ubx.copy(),
+        )

@@ -16,16 +16,30 @@ class Oracle(cs.Callback):
     def __init__(self, model: KnotDerivatives, kind: str, n_p: int):
         cs.Callback.__init__(self)
         self.model, self.kind, self.sizes, n = model, kind, (model.n_vars, n_p), model.n_vars
-        self.out = {"f": [cs.Sparsity.dense(1)], "grad": [cs.Sparsity.dense(1), cs.Sparsity.dense(n)],
-                    "hess": [cs.Sparsity.triplet(n, n, model.rows.tolist(), model.cols.tolist())]}[kind]
+        self.out = {
+            "f": [cs.Sparsity.dense(1)],
+            "grad": [cs.Sparsity.dense(1), cs.Sparsity.dense(n)],
+            "hess": [cs.Sparsity.triplet(n, n, model.rows.tolist(), model.cols.tolist())],
+        }[kind]
         self.construct(f"structured_{kind}", {})
 
-    def get_n_in(self): return 2
-    def get_n_out(self): return len(self.out)
-    def get_sparsity_in(self, i): return cs.Sparsity.dense(self.sizes[i])
-    def get_sparsity_out(self, i): return self.out[i]
-    def has_eval_buffer(self): return True
-    def has_reverse(self, n_adj): return self.kind == "f" and n_adj == 1
+    def get_n_in(self):
+        return 2
+
+    def get_n_out(self):
+        return len(self.out)
+
+    def get_sparsity_in(self, i):
+        return cs.Sparsity.dense(self.sizes[i])
+
+    def get_sparsity_out(self, i):
+        return self.out[i]
+
+    def has_eval_buffer(self):
+        return True
+
+    def has_reverse(self, n_adj):
+        return self.kind == "f" and n_adj == 1
 
     def get_reverse(self, n_adj, name, inames, onames, opts):  # df = gradient dx (nlpsol builds nlp_grad with it)
         x, p, f, adj = (cs.MX.sym(v, s) for v, s in zip("xpfa", (*self.sizes, 1, 1)))
@@ -33,8 +47,11 @@ class Oracle(cs.Callback):
 
     def eval_buffer(self, arg, res):  # CasADi passes None for zero inputs and for outputs it does not want
         x, p = (np.zeros(n) if a is None else np.frombuffer(a, dtype=float) for n, a in zip(self.sizes, arg))
-        values = {"f": lambda: [self.model.value(x, p)], "grad": lambda: self.model.gradient(x, p),
-                  "hess": lambda: [self.model.hessian(x, p)]}[self.kind]()
+        values = {
+            "f": lambda: [self.model.value(x, p)],
+            "grad": lambda: self.model.gradient(x, p),
+            "hess": lambda: [self.model.hessian(x, p)],
+        }[self.kind]()
         for buffer, value in zip(res, values):
             if buffer is not None:
                 np.frombuffer(buffer, dtype=float)[:] = value
@@ -52,24 +69,44 @@ class ConstraintOracle(cs.Callback):
         rows, cols = np.nonzero(constraints.pattern)
         self.jac_order = np.lexsort((rows, cols))  # CCS order of the Jacobian's nonzeros
         self.jac_index = rows[self.jac_order], cols[self.jac_order]
-        self.out = {"jac": [cs.Sparsity.dense(constraints.n_rows),
-                            cs.Sparsity.triplet(constraints.n_rows, n, *(i.tolist() for i in self.jac_index))],
-                    "hess": [cs.Sparsity.triplet(n, n, model.rows.tolist(), model.cols.tolist())]}[kind]
+        self.out = {
+            "jac": [
+                cs.Sparsity.dense(constraints.n_rows),
+                cs.Sparsity.triplet(constraints.n_rows, n, *(i.tolist() for i in self.jac_index)),
+            ],
+            "hess": [cs.Sparsity.triplet(n, n, model.rows.tolist(), model.cols.tolist())],
+        }[kind]
         self.construct(f"constraint_{kind}", {})
 
-    def get_n_in(self): return len(self.sizes)
-    def get_n_out(self): return len(self.out)
-    def get_sparsity_in(self, i): return cs.Sparsity.dense(self.sizes[i])
-    def get_sparsity_out(self, i): return self.out[i]
-    def has_eval_buffer(self): return True
-    def has_reverse(self, n_adj): return self.kind == "jac" and n_adj == 1
+    def get_n_in(self):
+        return len(self.sizes)
+
+    def get_n_out(self):
+        return len(self.out)
+
+    def get_sparsity_in(self, i):
+        return cs.Sparsity.dense(self.sizes[i])
+
+    def get_sparsity_out(self, i):
+        return self.out[i]
+
+    def has_eval_buffer(self):
+        return True
+
+    def has_reverse(self, n_adj):
+        return self.kind == "jac" and n_adj == 1
 
     def get_reverse(self, n_adj, name, inames, onames, opts):  # dh^T adj (nlpsol's Lagrangian gradient)
         x, p = cs.MX.sym("x", self.sizes[0]), cs.MX.sym("p", self.sizes[1])
         h, jac = cs.MX.sym("h", self.out[0]), cs.MX.sym("jac", self.out[1])
         adj_h, adj_jac = cs.MX.sym("adj_h", self.out[0]), cs.MX.sym("adj_jac", self.out[1])
-        return cs.Function(name, [x, p, h, jac, adj_h, adj_jac],
-                           [cs.densify(cs.mtimes(self(x, p)[1].T, adj_h)), cs.MX(self.sizes[1], 1)], inames, onames)
+        return cs.Function(
+            name,
+            [x, p, h, jac, adj_h, adj_jac],
+            [cs.densify(cs.mtimes(self(x, p)[1].T, adj_h)), cs.MX(self.sizes[1], 1)],
+            inames,
+            onames,
+        )
 
     def eval_buffer(self, arg, res):
         x, p, *lam = (np.zeros(n) if a is None else np.frombuffer(a, dtype=float) for n, a in zip(self.sizes, arg))

@@ -18,8 +18,8 @@ the bounds cannot be met by the phase's end, the horizon is stretched.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import casadi as cs
@@ -97,7 +97,7 @@ class TaskPlanner:
         self.heading_offset = heading_offset  # heading = angle(p_1 - p_0) + offset (pads face each other)
         M = self.M = spec.control_points
         self.free = np.zeros((ROWS, M), dtype=bool)
-        self.free[:, 2:M - 3] = True
+        self.free[:, 2 : M - 3] = True
         self.n_free = int(self.free.sum())
         s = self.s = np.linspace(0.0, 1.0, spec.samples + 1)[1:]  # obstacle and facing samples (s = 0 is fixed)
         self.B = bernstein_basis(M, s)  # (S, M)
@@ -106,9 +106,8 @@ class TaskPlanner:
         w = spec.weights
         # linear residuals: smoothness (first and second differences of every curve) and level hands
         level = np.zeros((M, ROWS * M))
-        level[:, 2 * M:3 * M], level[:, 5 * M:6 * M] = np.eye(M), -np.eye(M)
-        self.J_lin = np.vstack([w.smoothness * np.kron(eye, D1), w.acceleration * np.kron(eye, D2),
-                                w.level * level])
+        level[:, 2 * M : 3 * M], level[:, 5 * M : 6 * M] = np.eye(M), -np.eye(M)
+        self.J_lin = np.vstack([w.smoothness * np.kron(eye, D1), w.acceleration * np.kron(eye, D2), w.level * level])
         # bound rows: hodograph control points of velocity and acceleration, per curve (bounds scale with T)
         self.A = np.vstack([np.kron(eye, D1), np.kron(eye, D2)])
         n1, n2 = D1.shape[0], D2.shape[0]
@@ -119,9 +118,14 @@ class TaskPlanner:
         self.keep = np.any(self.A[:, self.free.ravel()] != 0, axis=1)  # rows with a free variable
         self.n_points = 3  # hand 0, hand 1, the carried object (midpoint)
         n_rows = int(self.keep.sum()) + len(obstacles) * self.n_points * s.size
-        self.qp = Buffered(cs.conic("planner", spec.qp, {"h": cs.Sparsity.dense(self.n_free, self.n_free),
-                                                         "a": cs.Sparsity.dense(n_rows, self.n_free)},
-                                    {"error_on_fail": False}))
+        self.qp = Buffered(
+            cs.conic(
+                "planner",
+                spec.qp,
+                {"h": cs.Sparsity.dense(self.n_free, self.n_free), "a": cs.Sparsity.dense(n_rows, self.n_free)},
+                {"error_on_fail": False},
+            )
+        )
         self.C, self.phase, self.t_plan, self.T_plan = None, None, 0.0, 1.0
         self.path = f"Gauss-Newton SQP on the control points, {spec.qp} QP, numpy derivatives"
 
@@ -138,8 +142,16 @@ class TaskPlanner:
         heading = np.arctan2(d[1], d[0]) + self.heading_offset
         return heading_now + (heading - heading_now + np.pi) % (2 * np.pi) - np.pi  # nearest to heading_now
 
-    def step(self, t: float, state: HandState, goal: np.ndarray, phase_end: float, phase: int,
-             carrying_radius: float | None = None, carrying_drop: float = 0.0) -> PlannerResult:
+    def step(
+        self,
+        t: float,
+        state: HandState,
+        goal: np.ndarray,
+        phase_end: float,
+        phase: int,
+        carrying_radius: float | None = None,
+        carrying_drop: float = 0.0,
+    ) -> PlannerResult:
         """Re-plan at time t towards `goal` (2, 3) for phase number `phase` ending at `phase_end`.
 
         While carrying, the object is the point `carrying_drop` below the hands' midpoint (its bottom centre)
@@ -193,8 +205,28 @@ class TaskPlanner:
         clearance, status)."""
         free = self.free.ravel()
         x = C.ravel()
-        # facing residual (p_1 - p_0) . h(psi) at the samples, h = (cos, sin, 0), and its Jacobian
         curves = C @ self.B.T  # (7, S)
+        r_pose, J_pose = self._pose_residuals(curves, width)
+        r = np.r_[self.J_lin @ x, r_pose]
+        J = np.vstack([self.J_lin, J_pose])[:, free]
+        H = J.T @ J + 1e-9 * np.eye(self.n_free)
+        g = J.T @ r
+        limit = self._rate_limits * T**self._rate_order  # D^k P are s-derivatives: time derivative = D^k P / T^k
+        Ax = self.A @ x
+        rows = [self.A[self.keep][:, free]]
+        lba, uba = [(-limit - Ax)[self.keep]], [(limit - Ax)[self.keep]]
+        clearance = self._clearance_rows(curves, t, T, carried, rows, lba, uba)
+        out = self.qp(
+            h=H, g=g, a=np.vstack(rows), lba=np.concatenate(lba), uba=np.concatenate(uba), lbx=-np.inf, ubx=np.inf
+        )
+        stats = self.qp.stats()
+        if stats["success"]:
+            return out["x"].copy(), clearance, "rti_step"
+        return None, clearance, f"qp_failed: {stats.get('return_status', '?')}"
+
+    def _pose_residuals(self, curves: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray]:
+        """Residuals at the samples and their Jacobians over all control points: facing (p_1 - p_0) . h(psi),
+        h = (cos, sin, 0), then grip width |p_1 - p_0| - the goal's (a held box is not stretched)."""
         d, psi = curves[3:5] - curves[0:2], curves[6]
         h, dh = np.stack([np.cos(psi), np.sin(psi)]), np.stack([-np.sin(psi), np.cos(psi)])
         w = self.spec.weights.facing
@@ -204,7 +236,6 @@ class TaskPlanner:
             J_face[:, axis] = -w * h[axis][:, None] * self.B
             J_face[:, 3 + axis] = w * h[axis][:, None] * self.B
         J_face[:, 6] = w * np.sum(d * dh, axis=0)[:, None] * self.B
-        # grip width: |p_1 - p_0| stays the goal's (a held box is not stretched; hands do not straddle obstacles)
         across = curves[3:6] - curves[0:3]
         length = np.maximum(np.linalg.norm(across, axis=0), 1e-9)
         w = self.spec.weights.width
@@ -213,14 +244,21 @@ class TaskPlanner:
         for axis in range(3):
             J_width[:, axis] = -w * (across[axis] / length)[:, None] * self.B
             J_width[:, 3 + axis] = w * (across[axis] / length)[:, None] * self.B
-        r = np.r_[self.J_lin @ x, r_face, r_width]
-        J = np.vstack([self.J_lin, J_face.reshape(psi.size, -1), J_width.reshape(psi.size, -1)])[:, free]
-        H = J.T @ J + 1e-9 * np.eye(self.n_free)
-        g = J.T @ r
-        limit = self._rate_limits * T**self._rate_order  # D^k P are s-derivatives: time derivative = D^k P / T^k
-        Ax = self.A @ x
-        rows = [self.A[self.keep][:, free]]
-        lba, uba = [(-limit - Ax)[self.keep]], [(limit - Ax)[self.keep]]
+        return np.r_[r_face, r_width], np.vstack([J_face.reshape(psi.size, -1), J_width.reshape(psi.size, -1)])
+
+    def _clearance_rows(
+        self,
+        curves: np.ndarray,
+        t: float,
+        T: float,
+        carried: tuple[float, float] | None,
+        rows: list,
+        lba: list,
+        uba: list,
+    ) -> float:
+        """Append the linearised clearance rows of both hands and (while carrying) the object to (rows, lba, uba);
+        return the smallest predicted clearance margin."""
+        free, n = self.free.ravel(), self.s.size
         clearance = np.inf
         object_point = 0.5 * (curves[0:3] + curves[3:6]).T - [0.0, 0.0, carried[1] if carried else 0.0]
         points = [curves[0:3].T, curves[3:6].T, object_point]
@@ -233,18 +271,13 @@ class TaskPlanner:
                 shape = obstacle.shape if k < 2 or not active else obstacle.shape.grown(carried[0])
                 dist, grad = shape.distance(p - moved)
                 needed = obstacle.clearance
-                row = np.zeros((psi.size, ROWS, self.M))
+                row = np.zeros((n, ROWS, self.M))
                 for axis in range(3):
                     row[:, axis] = w0 * grad[:, axis][:, None] * self.B
                     row[:, 3 + axis] = w1 * grad[:, axis][:, None] * self.B
-                rows.append(row.reshape(psi.size, -1)[:, free] if active else np.zeros((psi.size, self.n_free)))
-                lba.append(needed - dist if active else np.full(psi.size, -np.inf))
-                uba.append(np.full(psi.size, np.inf))
+                rows.append(row.reshape(n, -1)[:, free] if active else np.zeros((n, self.n_free)))
+                lba.append(needed - dist if active else np.full(n, -np.inf))
+                uba.append(np.full(n, np.inf))
                 if active:
                     clearance = min(clearance, float(np.min(dist - needed)))
-        out = self.qp(h=H, g=g, a=np.vstack(rows), lba=np.concatenate(lba), uba=np.concatenate(uba),
-                      lbx=-np.inf, ubx=np.inf)
-        stats = self.qp.stats()
-        if stats["success"]:
-            return out["x"].copy(), clearance, "rti_step"
-        return None, clearance, f"qp_failed: {stats.get('return_status', '?')}"
+        return clearance

@@ -9,10 +9,23 @@ if TYPE_CHECKING:  # casadi and the solvers load only when a solver is built (va
     from harmony_cli.mpc.problem import Problem, Solver
     from harmony_cli.scenario.models import SolverSpec
 
-HARMONY_SOLVERS = {"gauss_newton": "Gauss-Newton SQP to convergence, one QP per iteration",
-                   "rti": "real-time iteration: one Gauss-Newton QP per control step"}
-NLP_CANDIDATES = ("ipopt", "sqpmethod", "feasiblesqpmethod", "blocksqp", "fatrop", "bonmin", "uno", "knitro",
-                  "snopt", "worhp", "madnlp")
+HARMONY_SOLVERS = {
+    "gauss_newton": "Gauss-Newton SQP to convergence, one QP per iteration",
+    "rti": "real-time iteration: one Gauss-Newton QP per control step",
+}
+NLP_CANDIDATES = (
+    "ipopt",
+    "sqpmethod",
+    "feasiblesqpmethod",
+    "blocksqp",
+    "fatrop",
+    "bonmin",
+    "uno",
+    "knitro",
+    "snopt",
+    "worhp",
+    "madnlp",
+)
 QpName = Literal["daqp", "qpoases", "osqp", "proxqp"]
 QP_SOLVERS: tuple[str, ...] = get_args(QpName)
 HINTS = {"knitro": "the KNITRO plugin needs libknitro on the loader path and a licence"}
@@ -37,8 +50,9 @@ def available_solvers() -> tuple[str, ...]:
 def unavailable_message(name: str) -> str:
     """One line: solver.name, the value, why (a hint where one is known) and the valid choices."""
     hint = f" ({HINTS[name]})" if name in HINTS else ""
-    return f"solver.name: {name!r} is not available on this machine{hint}; choose one of: " \
-           f"{', '.join(available_solvers())}"
+    return (
+        f"solver.name: {name!r} is not available on this machine{hint}; choose one of: {', '.join(available_solvers())}"
+    )
 
 
 def qp_solver_for(qp: str, n_vars: int, real_time_iteration: bool) -> str:
@@ -59,8 +73,9 @@ def make_solver(problem: Problem, spec: SolverSpec) -> Solver:
 
     if spec.name in HARMONY_SOLVERS:
         rti = spec.name == "rti"
-        return GaussNewtonSolver(problem, qp_solver_for(spec.qp, problem.n_vars, rti), 1 if rti else spec.max_iter,
-                                 spec.tol, spec.name)
+        return GaussNewtonSolver(
+            problem, qp_solver_for(spec.qp, problem.n_vars, rti), 1 if rti else spec.max_iter, spec.tol, spec.name
+        )
     if spec.name not in available_nlp_plugins():
         raise SolverUnavailable(unavailable_message(spec.name))
     try:

@@ -39,8 +39,15 @@ class Transcription(Protocol):
     def linear_constraints(self, x, velocity_limit: np.ndarray) -> dict[str, tuple]:
         """Named rows (expr, lower, upper), affine in x."""
 
-    def bounds(self, lower: np.ndarray, upper: np.ndarray, velocity_limit: np.ndarray, q_now: np.ndarray,
-               pinned: list[int], q_pinned: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def bounds(
+        self,
+        lower: np.ndarray,
+        upper: np.ndarray,
+        velocity_limit: np.ndarray,
+        q_now: np.ndarray,
+        pinned: list[int],
+        q_pinned: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """(lbx, ubx): limits, the measured state at t = 0 and the pinned joints."""
 
     def readout(self, x: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
@@ -99,7 +106,8 @@ class BezierTranscription:
         s = np.array([min(t / self.horizon, 1.0)])
         Q = self.positions(x)
         return Q @ bezier.derivative_matrix(self.n_ctrl, s, 0)[0], Q @ bezier.derivative_matrix(
-            self.n_ctrl, s, 1, self.horizon)[0]
+            self.n_ctrl, s, 1, self.horizon
+        )[0]
 
     def shift(self, x: np.ndarray, dt: float) -> np.ndarray:
         return (self.positions(x) @ bezier.shift_matrix(self.n_ctrl, dt / self.horizon)).ravel("F")

@@ -39,15 +39,23 @@ class WholeBodyMPC:
         self.n_hands = len(robot.end_effectors)
         self.limits = joint_limits(robot, self.admittance)
         self.transcription = make_transcription(scenario.mpc, self.limits[0].size)
-        self.clearances, poses = scene_clearances(scenario.world, scenario.planner.hand_radius,
-                                                  scenario.robot.base_margin)
+        self.clearances, poses = scene_clearances(
+            scenario.world, scenario.planner.hand_radius, scenario.robot.base_margin
+        )
         self.layout = KnotLayout(self.n_hands, len(self.clearances), self.admittance is not None)
         # obstacle poses at every knot (rows of the knot parameters after the hands'); moving ones update them
         self.obstacle_poses = np.tile(poses[:, None], self.transcription.n_knots)
-        self.problem = build_problem(robot, self.transcription, scenario.mpc.weights, scenario.robot.chest_joints,
-                                     scenario.robot.mirrored_joints, self.clearances,
-                                     tuple(map(tuple, scenario.robot.footprint)) if self.clearances else (),
-                                     scenario.mpc.clearance, self.admittance)
+        self.problem = build_problem(
+            robot,
+            self.transcription,
+            scenario.mpc.weights,
+            scenario.robot.chest_joints,
+            scenario.robot.mirrored_joints,
+            self.clearances,
+            tuple(map(tuple, scenario.robot.footprint)) if self.clearances else (),
+            scenario.mpc.clearance,
+            self.admittance,
+        )
         self.solver = make_solver(self.problem, scenario.solver)
         self.build_time = time.perf_counter() - start
         self.x: np.ndarray | None = None  # last good solution
@@ -70,8 +78,13 @@ class WholeBodyMPC:
         positions = np.tile(q_now[:, None], t.position_basis.shape[1]).ravel("F")
         return np.concatenate([positions, np.zeros(t.n_vars - positions.size)])
 
-    def step(self, q_now: np.ndarray, hand_ref: np.ndarray, force_ref: np.ndarray | None = None,
-             force_meas: np.ndarray | None = None) -> tuple[Command, SolveResult]:
+    def step(
+        self,
+        q_now: np.ndarray,
+        hand_ref: np.ndarray,
+        force_ref: np.ndarray | None = None,
+        force_meas: np.ndarray | None = None,
+    ) -> tuple[Command, SolveResult]:
         """hand_ref: (12 * hands) x K references at the knot times (knot_params.hand_rows); with admittance,
         force_ref: hands x K squeeze force references and force_meas: (hands,) measured pad normal forces [N]."""
         if self.force_filter is not None and force_meas is not None:

@@ -20,9 +20,15 @@ if TYPE_CHECKING:
     from harmony_cli.scenario.models import AdmittanceSpec, Weights
 
 
-def task_residual_function(robot: Robot, weights: Weights, n_knots: int, clearances: tuple[Clearance, ...] = (),
-                           footprint: tuple[tuple[float, float, float], ...] = (), soft: bool = False,
-                           compliant: bool = False) -> cs.Function:
+def task_residual_function(
+    robot: Robot,
+    weights: Weights,
+    n_knots: int,
+    clearances: tuple[Clearance, ...] = (),
+    footprint: tuple[tuple[float, float, float], ...] = (),
+    soft: bool = False,
+    compliant: bool = False,
+) -> cs.Function:
     """Weighted per-knot residual r(q, ref) = [sqrt(w_p/K)(p - p_ref - dp n); sqrt(w_o/K) vec(R - R_ref)] per
     hand, then if `soft`, sqrt(w_c/K) max(0, -margin) for every clearance margin (squared in the cost: C1).
 
@@ -46,9 +52,16 @@ def task_residual_function(robot: Robot, weights: Weights, n_knots: int, clearan
     return cs.Function("task_residual", [q, ref], [cs.vertcat(*parts)])
 
 
-def linear_residuals(robot: Robot, knots: tuple, ref, layout: KnotLayout, weights: Weights,
-                     chest_joints: list[str], mirrored_joints: list[tuple[str, str]],
-                     admittance: AdmittanceSpec | None) -> dict:
+def linear_residuals(
+    robot: Robot,
+    knots: tuple,
+    ref,
+    layout: KnotLayout,
+    weights: Weights,
+    chest_joints: list[str],
+    mirrored_joints: list[tuple[str, str]],
+    admittance: AdmittanceSpec | None,
+) -> dict:
     """The residuals affine in (x, p), by name: chest yaw, arm symmetry, posture, joint velocity and
     acceleration and, with admittance, F_hat = F_meas + m dp'' + D dp' + K dp -> F_ref at every knot."""
     q, dq, ddq = knots
@@ -59,8 +72,8 @@ def linear_residuals(robot: Robot, knots: tuple, ref, layout: KnotLayout, weight
     home = robot.home[arms][:, None]
     linear = {
         "chest_yaw": np.sqrt(weights.chest_yaw / K) * q[chest, :],
-        "arm_symmetry": np.sqrt(weights.arm_symmetry / K) * cs.vertcat(
-            cs.SX(0, K), *[q[robot.index(a), :] + q[robot.index(b), :] for a, b in mirrored_joints]),
+        "arm_symmetry": np.sqrt(weights.arm_symmetry / K)
+        * cs.vertcat(cs.SX(0, K), *[q[robot.index(a), :] + q[robot.index(b), :] for a, b in mirrored_joints]),
         "posture": np.sqrt(weights.posture / K) * (q[arms, :] - home),
         "velocity": np.sqrt(weights.velocity / K) * dq[moving, :],
         "acceleration": np.sqrt(weights.acceleration / ddq.shape[1]) * ddq[moving, :],
@@ -69,8 +82,12 @@ def linear_residuals(robot: Robot, knots: tuple, ref, layout: KnotLayout, weight
         ddq_k = ddq if ddq.shape[1] == K else cs.horzcat(ddq, ddq[:, -1])  # traditional: K - 1 differences
         w = np.sqrt(admittance.weight / K)
         for h, hand in enumerate(robot.hand_names):
-            f_hat = (ref[layout.force_meas(h), :] + admittance.mass * ddq_k[nd + h, :]
-                     + admittance.damping_value * dq[nd + h, :] + admittance.stiffness * q[nd + h, :])
+            f_hat = (
+                ref[layout.force_meas(h), :]
+                + admittance.mass * ddq_k[nd + h, :]
+                + admittance.damping_value * dq[nd + h, :]
+                + admittance.stiffness * q[nd + h, :]
+            )
             linear[f"admittance_{hand}"] = w * (f_hat - ref[layout.force_ref(h), :])
     return {name: r for name, r in linear.items() if r.numel() > 0}  # e.g. a robot without a chest joint
 
@@ -80,15 +97,26 @@ def _affine_form(linear: dict, x, p) -> tuple[np.ndarray, np.ndarray, np.ndarray
     r_lin = cs.vertcat(*[cs.vec(r) for r in linear.values()])
     if not cs.is_linear(r_lin, cs.vertcat(x, p)):
         raise ValueError("the linear cost residuals are not affine in the decision variables and parameters")
-    L, S, c = (np.array(v) for v in cs.Function("lin", [x, p], [cs.jacobian(r_lin, x), cs.jacobian(r_lin, p),
-                                                                r_lin])(np.zeros(x.numel()), np.zeros(p.numel())))
+    L, S, c = (
+        np.array(v)
+        for v in cs.Function("lin", [x, p], [cs.jacobian(r_lin, x), cs.jacobian(r_lin, p), r_lin])(
+            np.zeros(x.numel()), np.zeros(p.numel())
+        )
+    )
     return L, S, c.ravel()
 
 
-def build_problem(robot: Robot, transcription: Transcription, weights: Weights, chest_joints: list[str],
-                  mirrored_joints: list[tuple[str, str]], clearances: tuple[Clearance, ...] = (),
-                  footprint: tuple = (), clearance: str = "hard", admittance: AdmittanceSpec | None = None
-                  ) -> Problem:
+def build_problem(
+    robot: Robot,
+    transcription: Transcription,
+    weights: Weights,
+    chest_joints: list[str],
+    mirrored_joints: list[tuple[str, str]],
+    clearances: tuple[Clearance, ...] = (),
+    footprint: tuple = (),
+    clearance: str = "hard",
+    admittance: AdmittanceSpec | None = None,
+) -> Problem:
     """The MPC-W problem. Clearance is `hard` (rows h(q_k) >= 0 at knots k >= 1) or `soft` (a squared-hinge cost
     term). With `admittance`, the transcription carries one compliant offset per hand after the joints (see
     task_residual_function)."""
@@ -107,28 +135,39 @@ def build_problem(robot: Robot, transcription: Transcription, weights: Weights, 
         builder.add_cost_term(f"position_{hand}", cs.sumsqr(residual[layout.hand_position(h), :]))
         builder.add_cost_term(f"orientation_{hand}", cs.sumsqr(residual[layout.hand_rotation(h), :]))
     if soft:
-        builder.add_cost_term("clearance", cs.sumsqr(residual[layout.hands_end:, :]))
+        builder.add_cost_term("clearance", cs.sumsqr(residual[layout.hands_end :, :]))
     linear = linear_residuals(robot, knots, ref, layout, weights, chest_joints, mirrored_joints, admittance)
     for name, r in linear.items():
         builder.add_cost_term(name, cs.sumsqr(r))
     optimization = builder.build()
 
-    constraint = clearance_function(robot, clearances, footprint, layout.compliant) if clearances and not soft \
-        else None
+    constraint = clearance_function(robot, clearances, footprint, layout.compliant) if clearances and not soft else None
     p = optimization.parameters.vec()
     L, S, c = _affine_form(linear, x, p)
     A, lb, ub = linear_rows(x, transcription.linear_constraints(x, joint_limits(robot, admittance)[2]))
     return Problem(
-        x=x, p=p, terms={k: optimization.cost_terms[k] for k in optimization.cost_terms},
-        A=A, lb=lb, ub=ub, task_residual=task_residual,
-        position_basis=transcription.position_basis, ref_shape=(ref.shape[0], K), L=L, c=c, S=S,
-        constraint=constraint if constraint is not None and constraint.numel_out(0) else None)
+        x=x,
+        p=p,
+        terms={k: optimization.cost_terms[k] for k in optimization.cost_terms},
+        A=A,
+        lb=lb,
+        ub=ub,
+        task_residual=task_residual,
+        position_basis=transcription.position_basis,
+        ref_shape=(ref.shape[0], K),
+        L=L,
+        c=c,
+        S=S,
+        constraint=constraint if constraint is not None and constraint.numel_out(0) else None,
+    )
 
 
-def joint_limits(robot: Robot, admittance: AdmittanceSpec | None = None
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def joint_limits(robot: Robot, admittance: AdmittanceSpec | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(lower, upper, velocity limit) of the MPC's q: the joints, then the compliant offsets if any."""
     n = len(robot.end_effectors) if admittance is not None else 0
     offset, rate = (admittance.max_offset, admittance.max_offset_rate) if admittance is not None else (0.0, 0.0)
-    return (np.r_[robot.lower, np.full(n, -offset)], np.r_[robot.upper, np.full(n, offset)],
-            np.r_[robot.velocity_limit, np.full(n, rate)])
+    return (
+        np.r_[robot.lower, np.full(n, -offset)],
+        np.r_[robot.upper, np.full(n, offset)],
+        np.r_[robot.velocity_limit, np.full(n, rate)],
+    )

@@ -9,7 +9,7 @@ from pathlib import Path
 import pandas as pd
 
 from harmony_cli.report.metrics import task_outcome
-from harmony_cli.report.plots import plot_top_down
+from harmony_cli.report.scene_plots import plot_top_down
 from harmony_cli.scenario import load_scenario
 
 
@@ -21,17 +21,23 @@ def _row(run: Path) -> dict:
     loop = task["loop_time_ms"]
     clearance = task.get("min_clearance_m", {})
     phases = task.get("phases", [])
-    row = {"experiment": s["name"], "status": s["status"], "success": task.get("success"),
-           "box goal error [cm]": None if task.get("box_goal_error_m") is None else 100 * task["box_goal_error_m"],
-           "box dropped": task.get("box_dropped"), "box upright": task.get("box_upright"),
-           "min clearance robot [m]": min((c["robot"] for c in clearance.values()), default=None),
-           "min clearance box [m]": min((c["box"] for c in clearance.values() if "box" in c), default=None),
-           "base yaw range [deg]": task.get("base_yaw_range_deg"),
-           "loop median / p95 / max [ms]": f"{loop.get('median', float('nan')):.2f} / {loop.get('p95', float('nan')):.2f}"
-                                           f" / {loop.get('max', float('nan')):.2f}",
-           "planner failures": task.get("planner_failures"), "MPC failures": s.get("failed_solves"),
-           "phases completed": f"{sum(p['completed_s'] is not None for p in phases)} / {len(phases)}",
-           "steps": s.get("steps")}
+    row = {
+        "experiment": s["name"],
+        "status": s["status"],
+        "success": task.get("success"),
+        "box goal error [cm]": None if task.get("box_goal_error_m") is None else 100 * task["box_goal_error_m"],
+        "box dropped": task.get("box_dropped"),
+        "box upright": task.get("box_upright"),
+        "min clearance robot [m]": min((c["robot"] for c in clearance.values()), default=None),
+        "min clearance box [m]": min((c["box"] for c in clearance.values() if "box" in c), default=None),
+        "base yaw range [deg]": task.get("base_yaw_range_deg"),
+        "loop median / p95 / max [ms]": f"{loop.get('median', float('nan')):.2f} / {loop.get('p95', float('nan')):.2f}"
+        f" / {loop.get('max', float('nan')):.2f}",
+        "planner failures": task.get("planner_failures"),
+        "MPC failures": s.get("failed_solves"),
+        "phases completed": f"{sum(p['completed_s'] is not None for p in phases)} / {len(phases)}",
+        "steps": s.get("steps"),
+    }
     moving = task.get("min_clearance_moving_m", {})
     for name, c in clearance.items():
         value = f"{c['robot']:.3f}, {c['box']:.3f}" if "box" in c else f"{c['robot']:.3f}"
@@ -62,15 +68,28 @@ def experiments_report(dirs: list[Path], out: Path, name: str = "experiments") -
     meta = json.loads((dirs[0] / "meta.json").read_text()) if dirs else {}
     items = frame.set_index("experiment").T
     fmt = lambda v: f"{v:.3f}" if isinstance(v, float) else str(v)
-    markdown = "| | " + " | ".join(items.columns) + " |\n|" + "---|" * (items.shape[1] + 1) + "\n" + "".join(
-        f"| {item} | " + " | ".join(fmt(v) for v in row) + " |\n" for item, row in items.iterrows())
-    written[1].write_text(f"# Two-stage experiments\n\n{markdown}\nMeasured by harmony on "
-                          f"{meta.get('cpu', '?')}, one run at a time; loop = planner + whole-body MPC, observation "
-                          f"to command.\n")
+    markdown = (
+        "| | "
+        + " | ".join(items.columns)
+        + " |\n|"
+        + "---|" * (items.shape[1] + 1)
+        + "\n"
+        + "".join(f"| {item} | " + " | ".join(fmt(v) for v in row) + " |\n" for item, row in items.iterrows())
+    )
+    written[1].write_text(
+        f"# Two-stage experiments\n\n{markdown}\nMeasured by harmony on "
+        f"{meta.get('cpu', '?')}, one run at a time; loop = planner + whole-body MPC, observation "
+        f"to command.\n"
+    )
     for d in dirs:
         scenario = load_scenario(d / "scenario.resolved.yaml")
-        plot_top_down(out, pd.read_csv(d / "steps.csv"), scenario, list(scenario.robot.end_effectors),
-                      name=f"{scenario.name}_top_down.png")
+        plot_top_down(
+            out,
+            pd.read_csv(d / "steps.csv"),
+            scenario,
+            list(scenario.robot.end_effectors),
+            name=f"{scenario.name}_top_down.png",
+        )
         written.append(out / f"{scenario.name}_top_down.png")
         label = scenario.name
         still = _frame(d / "video.mp4", out / f"{label}_frame.png")

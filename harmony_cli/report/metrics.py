@@ -11,8 +11,12 @@ def time_stats_ms(values) -> dict[str, float]:
     v = np.asarray(values, dtype=float)
     if v.size == 0:
         return {"median": float("nan"), "p95": float("nan"), "max": float("nan"), "mean": float("nan")}
-    return {"median": float(np.median(v)), "p95": float(np.percentile(v, 95)), "max": float(v.max()),
-            "mean": float(v.mean())}
+    return {
+        "median": float(np.median(v)),
+        "p95": float(np.percentile(v, 95)),
+        "max": float(v.max()),
+        "mean": float(v.mean()),
+    }
 
 
 def tracking_error(steps: pd.DataFrame, hands: list[str]) -> dict[str, float]:
@@ -40,9 +44,11 @@ REACHED = 0.03  # [m] both hands this close to their phase goal: the phase is co
 
 def task_outcome(steps: pd.DataFrame, scenario, hands: list[str]) -> dict:
     """Success (box on its goal within 5 cm, upright, never dropped), clearances, phase completion, loop time."""
-    out: dict = {"loop_time_ms": time_stats_ms(steps["loop_ms"]),
-                 "planner_time_ms": time_stats_ms(steps["planner_ms"].dropna()),
-                 "planner_failures": int((steps["planner_success"].dropna() == False).sum())}  # noqa: E712
+    out: dict = {
+        "loop_time_ms": time_stats_ms(steps["loop_ms"]),
+        "planner_time_ms": time_stats_ms(steps["planner_ms"].dropna()),
+        "planner_failures": int((~steps["planner_success"].dropna().astype(bool)).sum()),
+    }
     yaw = steps[f"q_{scenario.robot.base_joints[2]}"]
     out["base_yaw_range_deg"] = float(np.degrees(yaw.max() - yaw.min()))
     clearances = {}
@@ -59,9 +65,14 @@ def task_outcome(steps: pd.DataFrame, scenario, hands: list[str]) -> dict:
         rows = steps["phase_index"] == index
         reached = steps["t"][rows & (goal_error < REACHED + phase.squeeze / 2)]  # a squeeze goal is inside the box
         start = float(steps["t"][rows].min()) if rows.any() else None
-        phases.append({"name": phase.name, "start_s": start,
-                       "completed_s": float(reached.min()) if len(reached) else None,
-                       "final_goal_error_m": float(goal_error[rows].iloc[-1]) if rows.any() else None})
+        phases.append(
+            {
+                "name": phase.name,
+                "start_s": start,
+                "completed_s": float(reached.min()) if len(reached) else None,
+                "final_goal_error_m": float(goal_error[rows].iloc[-1]) if rows.any() else None,
+            }
+        )
     out["phases"] = phases
     clear = all(v > 0 for c in clearances.values() for v in c.values())
     solved = out["planner_failures"] == 0 and bool(steps["success"].astype(bool).all())
@@ -74,9 +85,13 @@ def task_outcome(steps: pd.DataFrame, scenario, hands: list[str]) -> dict:
         dropped = bool(steps["dropped"].any())
         error = float(np.linalg.norm(final - np.asarray(box.goal))) if box.goal else None
         upright = float(steps["box_tilt_deg"].iloc[-1]) < UPRIGHT_DEG
-        out |= {"box_final": final.tolist(), "box_goal_error_m": error, "box_upright": upright,
-                "box_dropped": dropped,
-                "success": bool(error is not None and error <= GOAL_TOLERANCE and upright and not dropped and clear)}
+        out |= {
+            "box_final": final.tolist(),
+            "box_goal_error_m": error,
+            "box_upright": upright,
+            "box_dropped": dropped,
+            "success": bool(error is not None and error <= GOAL_TOLERANCE and upright and not dropped and clear),
+        }
     return out
 
 
@@ -94,16 +109,24 @@ def force_outcome(steps: pd.DataFrame, hands: list[str]) -> dict | None:
             used = rows & (ref > 0)
             if used.any():
                 error = (steps[f"{h}_force_normal_N"] - ref)[used].to_numpy()
-                per_hand[h] = {"rms_N": float(np.sqrt(np.mean(error**2))), "max_N": float(np.abs(error).max()),
-                               "bias_N": float(error.mean()), "mean_ref_N": float(ref[used].mean()),
-                               "steps": int(used.sum())}
+                per_hand[h] = {
+                    "rms_N": float(np.sqrt(np.mean(error**2))),
+                    "max_N": float(np.abs(error).max()),
+                    "bias_N": float(error.mean()),
+                    "mean_ref_N": float(ref[used].mean()),
+                    "steps": int(used.sum()),
+                }
         return per_hand
 
     phases = {name: s for name in phase.unique() if (s := stats(phase == name))}
     overall = stats(pd.Series(True, index=steps.index))
-    return {"phases_with_reference": list(phases), "phases": phases, "overall": overall,
-            "rms_N": max((v["rms_N"] for v in overall.values()), default=None),  # the worse hand
-            "max_N": max((v["max_N"] for v in overall.values()), default=None)}
+    return {
+        "phases_with_reference": list(phases),
+        "phases": phases,
+        "overall": overall,
+        "rms_N": max((v["rms_N"] for v in overall.values()), default=None),  # the worse hand
+        "max_N": max((v["max_N"] for v in overall.values()), default=None),
+    }
 
 
 RECOVERED_M = 0.01  # [m] a hand within this of its reference ...
@@ -111,8 +134,9 @@ RECOVERY_HOLD_S = 0.5  # ... for this long has recovered
 AFTER_PUSH_S = 2.0  # [s] the push's window runs this long past its end
 
 
-def recovery_time(t: np.ndarray, error: np.ndarray, t0: float, tol: float = RECOVERED_M,
-                  hold: float = RECOVERY_HOLD_S) -> float | None:
+def recovery_time(
+    t: np.ndarray, error: np.ndarray, t0: float, tol: float = RECOVERED_M, hold: float = RECOVERY_HOLD_S
+) -> float | None:
     """Time from t0 until `error` is <= tol and stays there for >= hold (the log must cover it); None if never."""
     run_start = None
     for ti, e in zip(t, error):
@@ -156,10 +180,14 @@ def _window(steps: pd.DataFrame, hands: list[str], focus: list[str], start: floa
     twin = all(f"{h}_push_displacement_m" in part for h in hands)
     displacement = "_push_displacement_m" if twin else "_error_m"
     peak = lambda suffix: {h: float(part[h + suffix].max()) for h in hands}
-    out = {"window_s": [start, end], "steps": int(len(part)),
-           "displacement_from": "push-free run" if twin else "reference",
-           "peak_displacement_m": peak(displacement), "peak_error_m": peak("_error_m"),
-           "peak_pad_force_N": peak("_force_normal_N")}
+    out = {
+        "window_s": [start, end],
+        "steps": int(len(part)),
+        "displacement_from": "push-free run" if twin else "reference",
+        "peak_displacement_m": peak(displacement),
+        "peak_error_m": peak("_error_m"),
+        "peak_pad_force_N": peak("_force_normal_N"),
+    }
     if all(f"{h}_contact_N" in part for h in hands):
         out["peak_contact_N"] = peak("_contact_N")
     worst = part[[h + displacement for h in focus]].max(axis=1, skipna=False).to_numpy()
@@ -172,8 +200,9 @@ def baseline_peak(outcome: dict, key: str) -> float | None:
     return max(outcome["baseline"].get(key, {}).values(), default=None)
 
 
-def push_outcome(steps: pd.DataFrame, pushes, hands: list[str], pushed_hands: dict[str, str | None],
-                 after: float = AFTER_PUSH_S) -> dict:
+def push_outcome(
+    steps: pd.DataFrame, pushes, hands: list[str], pushed_hands: dict[str, str | None], after: float = AFTER_PUSH_S
+) -> dict:
     """Per push, over its window [start, end + after): peak hand displacement (from the push-free run when
     `{hand}_push_displacement_m` is logged, else `{hand}_error_m`), peak sensed pad normal force (and
     PyBullet pad-box contact force when logged), recovery time of the pushed hand (the worse hand when the push is
@@ -190,13 +219,21 @@ def push_outcome(steps: pd.DataFrame, pushes, hands: list[str], pushed_hands: di
         dt = float(steps["t"].diff().median()) if len(steps) > 1 else 0.0
         peak = during.get("peak_displacement_m")
         out[push.name] = {
-            "body": push.body, "link": push.link, "force_N": list(push.force), "start_s": push.start,
-            "duration_s": push.duration, "pushed_hand": hand,
+            "body": push.body,
+            "link": push.link,
+            "force_N": list(push.force),
+            "start_s": push.start,
+            "duration_s": push.duration,
+            "pushed_hand": hand,
             "applied_impulse_N_s": None if applied is None else float(applied.sum() * dt),
-            "peak_push_N": None if applied is None else float(applied[(steps["t"] >= p0 - 1e-9)
-                                                                      & (steps["t"] < p1 - 1e-9)].max()),
+            "peak_push_N": None
+            if applied is None
+            else float(applied[(steps["t"] >= p0 - 1e-9) & (steps["t"] < p1 - 1e-9)].max()),
             "peak_displacement_m": max(peak[h] for h in focus) if peak else None,
             "peak_pad_force_N": max(during["peak_pad_force_N"].values()) if peak else None,
             "peak_contact_N": max(during["peak_contact_N"].values()) if "peak_contact_N" in during else None,
-            "recovery_s": during.get("recovery_s"), "push": during, "baseline": baseline}
+            "recovery_s": during.get("recovery_s"),
+            "push": during,
+            "baseline": baseline,
+        }
     return out

@@ -9,8 +9,9 @@ from harmony_cli.report.metrics import force_outcome, push_outcome, summarise, t
 from harmony_cli.scenario import Scenario
 
 
-def summarise_run(steps: pd.DataFrame, scenario: Scenario, hands: list[str],
-                  pushed_hands: dict[str, str | None]) -> dict:
+def summarise_run(
+    steps: pd.DataFrame, scenario: Scenario, hands: list[str], pushed_hands: dict[str, str | None]
+) -> dict:
     """The metrics to merge into summary.json; force and push metrics sit in `task` for a task scenario, at the
     top level otherwise. `pushed_hands`: push name -> the hand it acts on (None: not on a hand)."""
     summary = summarise(steps, hands)
@@ -22,4 +23,3 @@ def summarise_run(steps: pd.DataFrame, scenario: Scenario, hands: list[str],
     if scenario.pushes:
         outcome["pushes"] = push_outcome(steps, scenario.pushes, hands, pushed_hands)
     return summary
-

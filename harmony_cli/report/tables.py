@@ -12,8 +12,12 @@ from harmony_cli.report.plots import plot_comparison
 from harmony_cli.report.text import fmt
 
 # The paper's Table 1 (KNITRO, Intel i9 3.6 GHz): (transcription, K) -> (mean solve ms, max tracking error cm)
-PAPER = {("traditional", 6): (11, 19.4), ("traditional", 26): (58, 9.8), ("bezier", 6): (9, 7.8),
-         ("bezier", 26): (12, 5.4)}
+PAPER = {
+    ("traditional", 6): (11, 19.4),
+    ("traditional", 26): (58, 9.8),
+    ("bezier", 6): (9, 7.8),
+    ("bezier", 26): (12, 5.4),
+}
 ORDER = {"traditional": 0, "bezier": 1}
 
 
@@ -23,8 +27,11 @@ def load_runs(dirs: list[Path]) -> list[dict]:
         summary = json.loads((d / "summary.json").read_text()) if (d / "summary.json").exists() else {}
         meta = json.loads((d / "meta.json").read_text()) if (d / "meta.json").exists() else {}
         runs.append({"dir": d, "summary": summary, "meta": meta})
-    key = lambda r: (r["summary"].get("solver", ""), ORDER.get(r["summary"].get("transcription"), 9),
-                     r["summary"].get("knots", 0))
+    key = lambda r: (
+        r["summary"].get("solver", ""),
+        ORDER.get(r["summary"].get("transcription"), 9),
+        r["summary"].get("knots", 0),
+    )
     return sorted(runs, key=key)
 
 
@@ -39,20 +46,29 @@ def _ours(s: dict) -> dict[str, str]:
     if "decision_variables" in s:
         bezier = s["transcription"] == "bezier"
         n_dof = s["n_dof"]
-        formula = (f"N x n_dof = {s['control_points']} x {n_dof}" if bezier
-                   else f"2K x n_dof = 2 x {s['knots']} x {n_dof}")
+        formula = (
+            f"N x n_dof = {s['control_points']} x {n_dof}" if bezier else f"2K x n_dof = 2 x {s['knots']} x {n_dof}"
+        )
         extra = s["decision_variables"] - (s["control_points"] if bezier else 2 * s["knots"]) * n_dof
         formula += f" + {extra} compliant offsets" if extra else ""
-        rows |= {"Long horizon": f"{s['horizon_s']:g} s", "Time knots": f"K = {s['knots']}",
-                 "Control point No.": f"N = {s['control_points']}" if bezier else "-",
-                 "Decision variable": s["decision_label"],
-                 "Decision variable No.": f"{formula} = {s['decision_variables']}"}
+        rows |= {
+            "Long horizon": f"{s['horizon_s']:g} s",
+            "Time knots": f"K = {s['knots']}",
+            "Control point No.": f"N = {s['control_points']}" if bezier else "-",
+            "Decision variable": s["decision_label"],
+            "Decision variable No.": f"{formula} = {s['decision_variables']}",
+        }
     if "solve_time_ms" in s:
         t, e = s["solve_time_ms"], s["tracking_error"]
-        rows |= {"Average computation time": f"{t['mean']:.1f} ms", "Median solve time": f"{t['median']:.1f} ms",
-                 "p95 solve time": f"{t['p95']:.1f} ms", "Max solve time": f"{t['max']:.1f} ms",
-                 "Max tracking error": f"{100 * e['max_m']:.2f} cm", "RMS tracking error": f"{100 * e['rms_m']:.2f} cm",
-                 "Failed solves": f"{s['failed_solves']} / {s['steps']}"}
+        rows |= {
+            "Average computation time": f"{t['mean']:.1f} ms",
+            "Median solve time": f"{t['median']:.1f} ms",
+            "p95 solve time": f"{t['p95']:.1f} ms",
+            "Max solve time": f"{t['max']:.1f} ms",
+            "Max tracking error": f"{100 * e['max_m']:.2f} cm",
+            "RMS tracking error": f"{100 * e['rms_m']:.2f} cm",
+            "Failed solves": f"{s['failed_solves']} / {s['steps']}",
+        }
     rows |= _disturbance(s.get("task", s))
     status = s.get("status", "missing")
     rows["Status"] = status if status == "completed" else f"{status}: {s.get('error', '')}"
@@ -73,18 +89,19 @@ def _disturbance(task: dict) -> dict[str, str]:
             rms, top = max(v["rms_N"] for v in hands.values()), max(v["max_N"] for v in hands.values())
             rows[f"Squeeze-force error RMS / max ({phase})"] = f"{rms:.2f} / {top:.2f} N"
     for name, p in task.get("pushes", {}).items():
-        peak = lambda key: baseline_peak(p, key)
-        rows |= {f"Push {name}: peak displacement (baseline)":
-                 f"{fmt(p['peak_displacement_m'], 'cm', 100, digits=3)} "
-                 f"({fmt(peak('peak_displacement_m'), 'cm', 100, digits=3)})",
-                 f"Push {name}: peak pad force (baseline)":
-                 f"{fmt(p['peak_pad_force_N'], 'N')} ({fmt(peak('peak_pad_force_N'), 'N')})",
-                 f"Push {name}: recovery to 1 cm": fmt(p["recovery_s"], "s", missing="never"),
-                 f"Push {name}: peak pusher force": fmt(p.get("peak_push_N"), "N"),
-                 f"Push {name}: pusher impulse": fmt(p.get("applied_impulse_N_s"), "N s")}
+        rows |= {
+            f"Push {name}: peak displacement (baseline)": f"{fmt(p['peak_displacement_m'], 'cm', 100, digits=3)} "
+            f"({fmt(baseline_peak(p, 'peak_displacement_m'), 'cm', 100, digits=3)})",
+            f"Push {name}: peak pad force (baseline)": f"{fmt(p['peak_pad_force_N'], 'N')} "
+            f"({fmt(baseline_peak(p, 'peak_pad_force_N'), 'N')})",
+            f"Push {name}: recovery to 1 cm": fmt(p["recovery_s"], "s", missing="never"),
+            f"Push {name}: peak pusher force": fmt(p.get("peak_push_N"), "N"),
+            f"Push {name}: pusher impulse": fmt(p.get("applied_impulse_N_s"), "N s"),
+        }
         if p.get("peak_contact_N") is not None:
-            rows[f"Push {name}: peak pad-box contact force (baseline)"] = \
-                f"{fmt(p['peak_contact_N'], 'N')} ({fmt(peak('peak_contact_N'), 'N')})"
+            rows[f"Push {name}: peak pad-box contact force (baseline)"] = (
+                f"{fmt(p['peak_contact_N'], 'N')} ({fmt(baseline_peak(p, 'peak_contact_N'), 'N')})"
+            )
     return rows
 
 
@@ -94,9 +111,15 @@ def _paper(s: dict) -> dict[str, str] | None:
         return None
     bezier = s["transcription"] == "bezier"
     n = 6 * 18 if bezier else 2 * s["knots"] * 18
-    return {"Long horizon": "5 s", "Time knots": f"K = {s['knots']}", "Control point No.": "N = 6" if bezier else "-",
-            "Decision variable No.": str(n), "Average computation time": f"{values[0]} ms",
-            "Max tracking error": f"{values[1]} cm", "Status": "KNITRO, i9 3.6 GHz"}
+    return {
+        "Long horizon": "5 s",
+        "Time knots": f"K = {s['knots']}",
+        "Control point No.": "N = 6" if bezier else "-",
+        "Decision variable No.": str(n),
+        "Average computation time": f"{values[0]} ms",
+        "Max tracking error": f"{values[1]} cm",
+        "Status": "KNITRO, i9 3.6 GHz",
+    }
 
 
 def labels(runs: list[dict]) -> list[str]:
@@ -120,8 +143,12 @@ def table(runs: list[dict], with_paper: bool = True) -> pd.DataFrame:
 
 def _latex(frame: pd.DataFrame) -> str:
     esc = lambda v: str(v).replace("_", r"\_").replace("%", r"\%").replace("&", r"\&")
-    lines = [r"\begin{tabular}{l" + "c" * frame.shape[1] + "}", r"\hline",
-             " & ".join(["Items"] + [esc(c) for c in frame.columns]) + r" \\", r"\hline"]
+    lines = [
+        r"\begin{tabular}{l" + "c" * frame.shape[1] + "}",
+        r"\hline",
+        " & ".join(["Items"] + [esc(c) for c in frame.columns]) + r" \\",
+        r"\hline",
+    ]
     lines += [" & ".join([esc(i)] + [esc(v) for v in row]) + r" \\" for i, row in frame.iterrows()]
     return "\n".join(lines + [r"\hline", r"\end{tabular}", ""])
 
@@ -130,8 +157,10 @@ def write_table(runs: list[dict], out: Path, name: str, title: str, with_paper: 
     frame = table(runs, with_paper)
     concurrency = sorted({r["meta"].get("concurrency", 1) for r in runs})
     cpu = sorted({r["meta"].get("cpu", "?") for r in runs})
-    note = (f"Measured by harmony on {', '.join(cpu)}, {'/'.join(map(str, concurrency))} run(s) at a time; "
-            f"solve time is the wall time of the whole-body MPC solver call per control step.")
+    note = (
+        f"Measured by harmony on {', '.join(cpu)}, {'/'.join(map(str, concurrency))} run(s) at a time; "
+        f"solve time is the wall time of the whole-body MPC solver call per control step."
+    )
     header = "| Items | " + " | ".join(frame.columns) + " |\n|" + "---|" * (frame.shape[1] + 1) + "\n"
     body = "".join("| " + " | ".join([str(i)] + [str(v) for v in row]) + " |\n" for i, row in frame.iterrows())
     paths = [out / f"{name}.md", out / f"{name}.csv", out / f"{name}.tex"]
@@ -141,8 +170,9 @@ def write_table(runs: list[dict], out: Path, name: str, title: str, with_paper: 
     return paths
 
 
-def compare_report(dirs: list[Path], out: Path, name: str = "table", main_solver: str | None = None,
-                   grid_keys: list[str] | None = None) -> list[Path]:
+def compare_report(
+    dirs: list[Path], out: Path, name: str = "table", main_solver: str | None = None, grid_keys: list[str] | None = None
+) -> list[Path]:
     """Table for the main solver (paper layout; the paper's values beside ours when the grid varies the
     transcription or K, or is not given), an extended table with every run, Fig. 4."""
     out.mkdir(parents=True, exist_ok=True)
@@ -155,8 +185,11 @@ def compare_report(dirs: list[Path], out: Path, name: str = "table", main_solver
     paths = write_table(main, out, name, f"{title} ({main_solver})", paper)
     if len(set(solvers)) > 1:
         paths += write_table(runs, out, f"{name}_extended", f"{title}: every solver mode", paper)
-    steps = {label: pd.read_csv(r["dir"] / "steps.csv") for r, label in zip(main, labels(main))
-             if r["summary"].get("status") == "completed"}
+    steps = {
+        label: pd.read_csv(r["dir"] / "steps.csv")
+        for r, label in zip(main, labels(main))
+        if r["summary"].get("status") == "completed"
+    }
     if steps:
         hands = [c.removesuffix("_error_m") for c in next(iter(steps.values())).columns if c.endswith("_error_m")]
         paths += plot_comparison(out, steps, hands)

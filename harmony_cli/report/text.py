@@ -14,15 +14,19 @@ def fmt(v: float | None, unit: str, scale: float = 1.0, missing: str = "-", digi
 def run_lines(run_dir: Path, summary: dict) -> list[str]:
     """The run's status, solve times and tracking; the task's outcome; force and push responses; the video."""
     t, e = summary["solve_time_ms"], summary["tracking_error"]
-    lines = [f"{run_dir}: {summary['status']}, {summary['decision_variables']} decision variables, "
-             f"solve median {t['median']:.2f} / p95 {t['p95']:.2f} / max {t['max']:.2f} ms, "
-             f"max tracking error {100 * e['max_m']:.2f} cm, failed solves {summary['failed_solves']}"]
+    lines = [
+        f"{run_dir}: {summary['status']}, {summary['decision_variables']} decision variables, "
+        f"solve median {t['median']:.2f} / p95 {t['p95']:.2f} / max {t['max']:.2f} ms, "
+        f"max tracking error {100 * e['max_m']:.2f} cm, failed solves {summary['failed_solves']}"
+    ]
     if "task" in summary:
         task, loop = summary["task"], summary["task"]["loop_time_ms"]
         clear = min((v for c in task["min_clearance_m"].values() for v in c.values()), default=float("inf"))
-        lines.append(f"task: success {task.get('success')}, box goal error {task.get('box_goal_error_m')}, dropped "
-                     f"{task.get('box_dropped')}, min clearance {clear:.3f} m, loop median {loop['median']:.2f} / "
-                     f"p95 {loop['p95']:.2f} / max {loop['max']:.2f} ms, planner failures {task['planner_failures']}")
+        lines.append(
+            f"task: success {task.get('success')}, box goal error {task.get('box_goal_error_m')}, dropped "
+            f"{task.get('box_dropped')}, min clearance {clear:.3f} m, loop median {loop['median']:.2f} / "
+            f"p95 {loop['p95']:.2f} / max {loop['max']:.2f} ms, planner failures {task['planner_failures']}"
+        )
         for name, c in task.get("min_clearance_moving_m", {}).items():
             clearances = ", ".join(f"{who} {v:.3f} m" for who, v in c.items())
             lines.append(f"moving obstacle {name}: min clearance {clearances}")
@@ -36,15 +40,19 @@ def disturbance_lines(outcome: dict) -> list[str]:
     """Squeeze-force tracking and each push's response, one line each (nothing when neither was measured)."""
     lines = []
     if force := outcome.get("force"):
-        lines.append(f"squeeze force error (worse hand, reference > 0): RMS {fmt(force['rms_N'], 'N')}, max "
-                     f"{fmt(force['max_N'], 'N')}; phases: {', '.join(force['phases_with_reference'])}")
+        lines.append(
+            f"squeeze force error (worse hand, reference > 0): RMS {fmt(force['rms_N'], 'N')}, max "
+            f"{fmt(force['max_N'], 'N')}; phases: {', '.join(force['phases_with_reference'])}"
+        )
     for name, p in outcome.get("pushes", {}).items():
         recovery = "never" if p["recovery_s"] is None else f"{p['recovery_s']:.2f} s"
-        lines.append(f"push {name} on {p['pushed_hand'] or p['body']} (displacement from the "
-                     f"{p['push'].get('displacement_from')}): peak displacement "
-                     f"{fmt(p['peak_displacement_m'], 'cm', 100)} (baseline "
-                     f"{fmt(baseline_peak(p, 'peak_displacement_m'), 'cm', 100)}), peak pad force "
-                     f"{fmt(p['peak_pad_force_N'], 'N')} (baseline {fmt(baseline_peak(p, 'peak_pad_force_N'), 'N')}), "
-                     f"back within 1 cm for 0.5 s after {recovery}, peak pusher force "
-                     f"{fmt(p.get('peak_push_N'), 'N')}")
+        lines.append(
+            f"push {name} on {p['pushed_hand'] or p['body']} (displacement from the "
+            f"{p['push'].get('displacement_from')}): peak displacement "
+            f"{fmt(p['peak_displacement_m'], 'cm', 100)} (baseline "
+            f"{fmt(baseline_peak(p, 'peak_displacement_m'), 'cm', 100)}), peak pad force "
+            f"{fmt(p['peak_pad_force_N'], 'N')} (baseline {fmt(baseline_peak(p, 'peak_pad_force_N'), 'N')}), "
+            f"back within 1 cm for 0.5 s after {recovery}, peak pusher force "
+            f"{fmt(p.get('peak_push_N'), 'N')}"
+        )
     return lines

@@ -57,8 +57,12 @@ class Robot:
 def load_robot(spec: RobotSpec, scenario_dir: Path) -> Robot:
     """Build the robot of a validated scenario `robot` section (paths relative to the scenario file); a URDF
     without the planar base joints gets them, and package:// meshes resolve through `package_paths`."""
-    urdf = prepare_urdf((scenario_dir / spec.urdf).resolve(), tuple(spec.base_joints),
-                        [(scenario_dir / p).resolve() for p in spec.package_paths], CACHE_DIR / "urdf")
+    urdf = prepare_urdf(
+        (scenario_dir / spec.urdf).resolve(),
+        tuple(spec.base_joints),
+        [(scenario_dir / p).resolve() for p in spec.package_paths],
+        CACHE_DIR / "urdf",
+    )
     model = optas.RobotModel(urdf_filename=str(urdf), time_derivs=[0])
     names = tuple(model.actuated_joint_names)
     home = np.zeros(len(names))

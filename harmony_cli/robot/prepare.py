@@ -22,8 +22,7 @@ BASE_TYPES = ("prismatic", "prismatic", "revolute")
 LINK_PREFIXES = ("", "harmony_")  # the first one whose new link names are all free is used
 
 
-def prepare_urdf(urdf: Path, base_joints: tuple[str, str, str], package_paths: list[Path],
-                 cache_dir: Path) -> Path:
+def prepare_urdf(urdf: Path, base_joints: tuple[str, str, str], package_paths: list[Path], cache_dir: Path) -> Path:
     """Return a URDF with the virtual base `base_joints` and absolute mesh paths.
 
     The original path comes back when nothing had to change; otherwise the rewritten URDF is
@@ -50,19 +49,21 @@ def _ensure_base_joints(robot: ET.Element, urdf: Path, base_joints: tuple[str, s
         return False
     if present:
         missing = [name for name in base_joints if name not in joint_names]
-        raise ValueError(f"{urdf}: base joints {missing} are missing while {present} exist; "
-                         "give all three virtual base joints or none")
+        raise ValueError(
+            f"{urdf}: base joints {missing} are missing while {present} exist; "
+            "give all three virtual base joints or none"
+        )
     root_link = _root_link(robot, urdf)
     link_names = {link.get("name") for link in robot.findall("link")}
-    prefix = next((p for p in LINK_PREFIXES
-                   if not link_names & {f"{p}world_origin", f"{p}base_px", f"{p}base_py"}), None)
+    prefix = next(
+        (p for p in LINK_PREFIXES if not link_names & {f"{p}world_origin", f"{p}base_px", f"{p}base_py"}), None
+    )
     if prefix is None:
         raise ValueError(f"{urdf}: cannot add a virtual base, link names world_origin/base_px/base_py are taken")
     chain = [f"{prefix}world_origin", f"{prefix}base_px", f"{prefix}base_py", root_link]
     new_elements = [_tiny_link(name) for name in chain[:3]]
     for i, name in enumerate(base_joints):
-        new_elements.append(_base_joint(name, BASE_TYPES[i], chain[i], chain[i + 1], BASE_AXES[i],
-                                        BASE_VELOCITIES[i]))
+        new_elements.append(_base_joint(name, BASE_TYPES[i], chain[i], chain[i + 1], BASE_AXES[i], BASE_VELOCITIES[i]))
     robot[0:0] = new_elements  # first in file order, so first among the actuated joints
     return True
 
@@ -92,8 +93,14 @@ def _base_joint(name: str, kind: str, parent: str, child: str, axis: str, veloci
     ET.SubElement(joint, "child", link=child)
     ET.SubElement(joint, "origin", xyz="0 0 0", rpy="0 0 0")
     ET.SubElement(joint, "axis", xyz=axis)
-    ET.SubElement(joint, "limit", lower=f"{-BASE_LIMIT:g}", upper=f"{BASE_LIMIT:g}", effort=f"{BASE_EFFORT:g}",
-                  velocity=f"{velocity:g}")
+    ET.SubElement(
+        joint,
+        "limit",
+        lower=f"{-BASE_LIMIT:g}",
+        upper=f"{BASE_LIMIT:g}",
+        effort=f"{BASE_EFFORT:g}",
+        velocity=f"{velocity:g}",
+    )
     return joint
 
 
@@ -115,7 +122,7 @@ def _resolve_mesh_filenames(robot: ET.Element, urdf: Path, package_paths: list[P
 
 def _resolve_package_uri(uri: str, urdf: Path, package_paths: list[Path]) -> str:
     """First existing `<search>/<pkg>/<rest>` or `<search>/<rest>` over the search paths."""
-    package, _, rest = uri[len(PACKAGE_SCHEME):].partition("/")
+    package, _, rest = uri[len(PACKAGE_SCHEME) :].partition("/")
     tried = []
     for search in package_paths:
         for candidate in (search / package / rest, search / rest):

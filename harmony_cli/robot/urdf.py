@@ -23,7 +23,9 @@ def actuated_joint_names(urdf: Path) -> list[str]:
 
 def parent_links(urdf: Path) -> dict[str, str]:
     """Child link -> parent link."""
-    return {j.find("child").get("link"): j.find("parent").get("link") for j in ET.parse(urdf).getroot().findall("joint")}
+    return {
+        j.find("child").get("link"): j.find("parent").get("link") for j in ET.parse(urdf).getroot().findall("joint")
+    }
 
 
 def fixed_joints_above(urdf: Path, link: str) -> list[str]:
@@ -56,20 +58,26 @@ def wrist_sensor_joints(spec: RobotSpec, urdf: Path) -> dict[str, str]:
     """Hand -> force/torque sensor joint, given or derived; ValueError (`field: value: reason; choices`) if unusable."""
     given = spec.wrist_sensors
     if given is not None and set(given) != set(spec.end_effectors):
-        raise ValueError(f"robot.wrist_sensors: {sorted(given)} must name every hand exactly once; "
-                         f"hands: {', '.join(spec.end_effectors)}")
+        raise ValueError(
+            f"robot.wrist_sensors: {sorted(given)} must name every hand exactly once; "
+            f"hands: {', '.join(spec.end_effectors)}"
+        )
     sensors = {}
     for hand, link in spec.end_effectors.items():
         choices = fixed_joints_above(urdf, link)
         if given is None:
             if not choices:
-                raise ValueError(f"robot.wrist_sensors: cannot derive hand {hand}'s sensor joint: {link!r} hangs "
-                                 f"from no fixed joint in {urdf.name}; add a fixed wrist joint to the URDF")
+                raise ValueError(
+                    f"robot.wrist_sensors: cannot derive hand {hand}'s sensor joint: {link!r} hangs "
+                    f"from no fixed joint in {urdf.name}; add a fixed wrist joint to the URDF"
+                )
             sensors[hand] = choices[-2] if len(choices) > 1 else choices[0]  # the joint above the frame's link
         elif given[hand] in choices:
             sensors[hand] = given[hand]
         else:
-            raise ValueError(f"robot.wrist_sensors.{hand}: {given[hand]!r} is not a fixed joint between {link} and "
-                             f"the movable joint above it in {urdf.name}; choose one of: "
-                             f"{', '.join(choices) or '(none)'}")
+            raise ValueError(
+                f"robot.wrist_sensors.{hand}: {given[hand]!r} is not a fixed joint between {link} and "
+                f"the movable joint above it in {urdf.name}; choose one of: "
+                f"{', '.join(choices) or '(none)'}"
+            )
     return sensors

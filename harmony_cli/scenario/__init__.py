@@ -3,14 +3,44 @@ cross-checks. Everything a run uses is validated here; inside harmony there are 
 
 from harmony_cli.scenario.errors import ScenarioError
 from harmony_cli.scenario.loading import apply_overrides, load_scenario, scenario_yaml
-from harmony_cli.scenario.models import (AdmittanceSpec, MpcSpec, PlannerSpec, PlannerWeights, Scenario, SimSpec,
-                                         SolverSpec, Weights)
+from harmony_cli.scenario.models import (
+    AdmittanceSpec,
+    MpcSpec,
+    PlannerSpec,
+    PlannerWeights,
+    Scenario,
+    SimSpec,
+    SolverSpec,
+    Weights,
+)
 from harmony_cli.scenario.robot import RobotSpec
-from harmony_cli.scenario.task import (HoldReference, PhaseSpec, Reference, RelativeTarget, SCurveReference,
-                                       TaskSpec)
+from harmony_cli.scenario.task import HoldReference, PhaseSpec, Reference, RelativeTarget, SCurveReference, TaskSpec
 from harmony_cli.scenario.world import BoxSpec, MotionSpec, ObstacleSpec, PushSpec, TableSpec, WorldSpec
 
-__all__ = ["AdmittanceSpec", "BoxSpec", "HoldReference", "MotionSpec", "MpcSpec", "ObstacleSpec", "PhaseSpec",
-           "PlannerSpec", "PlannerWeights", "PushSpec", "Reference", "RelativeTarget", "RobotSpec", "SCurveReference",
-           "Scenario", "ScenarioError", "SimSpec", "SolverSpec", "TableSpec", "TaskSpec", "WorldSpec", "Weights",
-           "apply_overrides", "load_scenario", "scenario_yaml"]
+__all__ = [
+    "AdmittanceSpec",
+    "BoxSpec",
+    "HoldReference",
+    "MotionSpec",
+    "MpcSpec",
+    "ObstacleSpec",
+    "PhaseSpec",
+    "PlannerSpec",
+    "PlannerWeights",
+    "PushSpec",
+    "Reference",
+    "RelativeTarget",
+    "RobotSpec",
+    "SCurveReference",
+    "Scenario",
+    "ScenarioError",
+    "SimSpec",
+    "SolverSpec",
+    "TableSpec",
+    "TaskSpec",
+    "WorldSpec",
+    "Weights",
+    "apply_overrides",
+    "load_scenario",
+    "scenario_yaml",
+]

@@ -23,8 +23,11 @@ def _model_at(loc: tuple) -> type[BaseModel] | None:
         if not (isinstance(model, type) and issubclass(model, BaseModel)) or part not in model.model_fields:
             return None
         ann = model.model_fields[part].annotation
-        models = [a for a in (ann, *get_args(ann), *(b for a in get_args(ann) for b in get_args(a)))
-                  if isinstance(a, type) and issubclass(a, BaseModel)]
+        models = [
+            a
+            for a in (ann, *get_args(ann), *(b for a in get_args(ann) for b in get_args(a)))
+            if isinstance(a, type) and issubclass(a, BaseModel)
+        ]
         model = models[0] if len(set(models)) == 1 else None  # a union of models: no single list of keys
     return model
 
@@ -44,8 +47,10 @@ def one_line(path: Path, err: ValidationError) -> str:
     msg = e["msg"].removeprefix("Value error, ")
     if e["type"] == "union_tag_invalid":
         ctx = e["ctx"]
-        return (f"{path}: {field}.{ctx['discriminator'].strip(chr(39))}: {ctx['tag']!r} is not valid; "
-                f"choose one of: {ctx['expected_tags']}")
+        return (
+            f"{path}: {field}.{ctx['discriminator'].strip(chr(39))}: {ctx['tag']!r} is not valid; "
+            f"choose one of: {ctx['expected_tags']}"
+        )
     if e["type"] == "literal_error":
         return f"{path}: {field}: {value!r} is not valid; choose one of: {e['ctx']['expected']}"
     return f"{path}: {field}: {value!r}: {msg}"

@@ -32,8 +32,10 @@ class MpcSpec(Strict):
     knots: int = Field(26, ge=2, description="time knots K where the cost is evaluated (independent of N)")
     control_points: int = Field(6, ge=2, description="Bezier control points N (bezier only)")
     clearance: Literal["hard", "soft"] = Field(
-        "hard", description="obstacle clearance of the base footprint and hands: constraint rows at knots k >= 1 "
-                            "(hard) or a squared-hinge cost weighted by weights.clearance (soft)")
+        "hard",
+        description="obstacle clearance of the base footprint and hands: constraint rows at knots k >= 1 "
+        "(hard) or a squared-hinge cost weighted by weights.clearance (soft)",
+    )
     weights: Weights = Weights()
 
 
@@ -58,8 +60,10 @@ class PlannerSpec(Strict):
     hand_radius: float = Field(0.08, ge=0, description="added to every obstacle margin for a hand centre [m]")
     period: int = Field(1, ge=1, description="re-plan every `period` control steps")
     start_velocity: Literal["plan", "measured"] = Field(
-        "plan", description="initial hand velocity of each re-plan (the pose is always the measured one): the "
-                            "previous plan's, or the measured one (restarts from rest when the robot lags)")
+        "plan",
+        description="initial hand velocity of each re-plan (the pose is always the measured one): the "
+        "previous plan's, or the measured one (restarts from rest when the robot lags)",
+    )
     iterations: int = Field(1, ge=1, description="SQP iterations per re-plan (1: real-time iteration)")
     phase_iterations: int = Field(10, ge=1, description="SQP iterations at the start of a phase")
     tol: PositiveFloat = Field(1e-5, description="SQP step tolerance [m]")
@@ -78,12 +82,18 @@ class AdmittanceSpec(Strict):
     weight: float = Field(0.1, ge=0, description="admittance cost ||F_hat - F_ref||^2 [1/N^2], mean over knots")
     ramp: PositiveFloat = Field(1.0, description="quintic blend of the force reference at a phase start [s]")
     off_squeeze: float | None = Field(
-        None, ge=0, description="enabled: false only: the position squeeze per pad [m] that stands in for a phase's "
-                          "force; null: F / K, the admittance's free-space offset")
+        None,
+        ge=0,
+        description="enabled: false only: the position squeeze per pad [m] that stands in for a phase's "
+        "force; null: F / K, the admittance's free-space offset",
+    )
     force_filter: float = Field(
-        0.05, ge=0, description="time constant [s] of the first-order low-pass on the sensed force the admittance "
-                                "sees; 0: raw. Without it the loop chatters at half the control rate against stiff "
-                                "contact (the offset is a static map of the force, loop gain k_contact / K > 1)")
+        0.05,
+        ge=0,
+        description="time constant [s] of the first-order low-pass on the sensed force the admittance "
+        "sees; 0: raw. Without it the loop chatters at half the control rate against stiff "
+        "contact (the offset is a static map of the force, loop gain k_contact / K > 1)",
+    )
     max_offset: PositiveFloat = Field(0.05, description="bound on the compliant offset [m]")
     max_offset_rate: PositiveFloat = Field(0.5, description="bound on its rate [m/s]")
 
@@ -93,13 +103,19 @@ class AdmittanceSpec(Strict):
 
 
 class SolverSpec(Strict):
-    name: str = Field("ipopt", description=f"{' | '.join(HARMONY_SOLVERS)} | any CasADi nlpsol plugin that loads "
-                                           f"here (ipopt, sqpmethod, blocksqp, fatrop, knitro with its licence, ...)")
+    name: str = Field(
+        "ipopt",
+        description=f"{' | '.join(HARMONY_SOLVERS)} | any CasADi nlpsol plugin that loads "
+        f"here (ipopt, sqpmethod, blocksqp, fatrop, knitro with its licence, ...)",
+    )
     qp: Literal["auto"] | QpName = Field(
-        "auto", description="QP solver of gauss_newton and rti; auto: daqp up to 300 variables, else osqp (rti) "
-                            "or proxqp (gauss_newton)")
+        "auto",
+        description="QP solver of gauss_newton and rti; auto: daqp up to 300 variables, else osqp (rti) "
+        "or proxqp (gauss_newton)",
+    )
     hessian: Literal["exact", "gauss_newton"] = Field(
-        "exact", description="NLP plugins: exact Hessian, or the Gauss-Newton one (both on the knot structure)")
+        "exact", description="NLP plugins: exact Hessian, or the Gauss-Newton one (both on the knot structure)"
+    )
     max_iter: int = Field(30, ge=1, description="Gauss-Newton SQP iterations per solve (rti: always 1)")
     tol: PositiveFloat = Field(1e-6, description="Gauss-Newton SQP step tolerance")
     options: dict[str, Any] = Field(default_factory=dict, description="passed to the CasADi plugin")
@@ -112,9 +128,11 @@ class SimSpec(Strict):
     position_gain: float = Field(0.5, gt=0, le=1, description="PyBullet position-control gain of chest/arms/head")
     velocity_gain: float = Field(1.0, gt=0, description="PyBullet velocity gain of chest/arms/head")
     pad_stiffness: PositiveFloat | None = Field(
-        None, description="contact stiffness of the tools below the wrist sensors [N/m] (a rubber pad); null: rigid")
-    pad_damping: PositiveFloat = Field(100.0, description="contact damping of the pads when pad_stiffness is set "
-                                                           "[N s/m]")
+        None, description="contact stiffness of the tools below the wrist sensors [N/m] (a rubber pad); null: rigid"
+    )
+    pad_damping: PositiveFloat = Field(
+        100.0, description="contact damping of the pads when pad_stiffness is set [N s/m]"
+    )
 
     @field_validator("control_dt")
     @classmethod
@@ -124,9 +142,11 @@ class SimSpec(Strict):
             return control_dt
         ratio = control_dt / physics_dt
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
-            raise ValueError(f"not a whole multiple of sim.physics_dt {physics_dt} (ratio {ratio:.4g}); valid: "
-                             f"k x physics_dt, e.g. {round(max(1, ratio)) * physics_dt:.6g}, or set physics_dt "
-                             f"{control_dt / max(1, round(ratio)):.6g}")
+            raise ValueError(
+                f"not a whole multiple of sim.physics_dt {physics_dt} (ratio {ratio:.4g}); valid: "
+                f"k x physics_dt, e.g. {round(max(1, ratio)) * physics_dt:.6g}, or set physics_dt "
+                f"{control_dt / max(1, round(ratio)):.6g}"
+            )
         return control_dt
 
     @property

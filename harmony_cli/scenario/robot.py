@@ -15,27 +15,39 @@ DEFAULT_PROFILE = "eva"
 
 class RobotSpec(Strict):
     profile: str | None = Field(
-        None, description=f"robot profile (harmony_cli/robot/profiles/<name>.yaml) that gives every field not set "
-                          f"here; default {DEFAULT_PROFILE!r} when `urdf` is not given, else none")
+        None,
+        description=f"robot profile (harmony_cli/robot/profiles/<name>.yaml) that gives every field not set "
+        f"here; default {DEFAULT_PROFILE!r} when `urdf` is not given, else none",
+    )
     urdf: str = Field(description="URDF path, relative to the scenario file (required without a profile)")
     end_effectors: dict[str, str] = Field(
-        description="hand label -> end-effector link (the frame every MPC controls; required without a profile)")
-    base_joints: list[str] = Field(["base_x", "base_y", "base_yaw"], min_length=3, max_length=3,
-                                   description="virtual planar base joints x, y, yaw, commanded by velocity; added "
-                                               "(prismatic, prismatic, revolute) when the URDF has none of them")
+        description="hand label -> end-effector link (the frame every MPC controls; required without a profile)"
+    )
+    base_joints: list[str] = Field(
+        ["base_x", "base_y", "base_yaw"],
+        min_length=3,
+        max_length=3,
+        description="virtual planar base joints x, y, yaw, commanded by velocity; added "
+        "(prismatic, prismatic, revolute) when the URDF has none of them",
+    )
     package_paths: list[str] = Field([], description="where package:// mesh URIs resolve (relative to the file)")
     wrist_sensors: dict[str, str] | None = Field(
-        None, description="hand -> fixed joint carrying the tool, where PyBullet measures the wrist force/torque; "
-                          "one of the fixed joints between the end effector and the last movable joint above it; "
-                          "default: the joint whose child holds the end-effector frame (EVA: *ARM_TOOL_JOINT)")
+        None,
+        description="hand -> fixed joint carrying the tool, where PyBullet measures the wrist force/torque; "
+        "one of the fixed joints between the end effector and the last movable joint above it; "
+        "default: the joint whose child holds the end-effector frame (EVA: *ARM_TOOL_JOINT)",
+    )
     pinned_joints: list[str] = Field([], description="held at home in every MPC (EVA: the head)")
     chest_joints: list[str] = Field([], description="torso joints (regularised towards 0)")
     mirrored_joints: list[tuple[str, str]] = Field([], description="pairs regularised to (a + b)^2 -> 0")
-    home_deg: dict[str, float] = Field({}, description="joint -> home angle in degrees (metres for prismatic); "
-                                                       "others 0")
+    home_deg: dict[str, float] = Field(
+        {}, description="joint -> home angle in degrees (metres for prismatic); others 0"
+    )
     footprint: list[tuple[float, float, float]] = Field(
-        [], description="circles [x, y, radius] in the base frame covering the base, kept clear of obstacles and "
-                        "table legs (EVA: its 1.007 x 0.707 m box, 2 x 5 circles); required with a world")
+        [],
+        description="circles [x, y, radius] in the base frame covering the base, kept clear of obstacles and "
+        "table legs (EVA: its 1.007 x 0.707 m box, 2 x 5 circles); required with a world",
+    )
     base_margin: float = Field(0.03, ge=0, description="clearance the footprint keeps from table legs [m]")
 
     @model_validator(mode="before")

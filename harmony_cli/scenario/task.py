@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Literal, Union
+from typing import Annotated, Literal
 
 from pydantic import Field, PositiveFloat
 
@@ -25,7 +25,7 @@ class HoldReference(Strict):
     type: Literal["hold"]
 
 
-Reference = Annotated[Union[SCurveReference, HoldReference], Field(discriminator="type")]
+Reference = Annotated[SCurveReference | HoldReference, Field(discriminator="type")]
 
 
 class RelativeTarget(Strict):
@@ -33,7 +33,7 @@ class RelativeTarget(Strict):
     offset: Vector3
 
 
-HandTarget = Union[Vector3, RelativeTarget, None]
+HandTarget = Vector3 | RelativeTarget | None
 
 
 class PhaseSpec(Strict):
@@ -43,9 +43,13 @@ class PhaseSpec(Strict):
     duration: PositiveFloat
     hands: dict[str, HandTarget] = Field(description="hand label -> absolute [x, y, z], relative target or null")
     squeeze: float = Field(0.0, ge=0, description="goals moved towards each other by this much in total [m]")
-    force: float = Field(0.0, ge=0, description="squeeze force reference per pad [N] (admittance; without it, "
-                                                "a position squeeze per pad: admittance.off_squeeze, or force / "
-                                                "stiffness when that is null)")
+    force: float = Field(
+        0.0,
+        ge=0,
+        description="squeeze force reference per pad [N] (admittance; without it, "
+        "a position squeeze per pad: admittance.off_squeeze, or force / "
+        "stiffness when that is null)",
+    )
     grasp: bool = Field(False, description="the box is held from the end of this phase")
     release: bool = Field(False, description="the box is let go during this phase")
 

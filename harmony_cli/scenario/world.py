@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-import numpy as np
 from typing import Literal
 
+import numpy as np
 from pydantic import Field, PositiveFloat, ValidationInfo, field_validator, model_validator
 
 from harmony_cli.scenario.base import Strict, Vector3
@@ -18,7 +18,8 @@ class MotionSpec(Strict):
     start: float = Field(0.0, ge=0, description="velocity only: the obstacle is at `position` until then [s]")
     stop: float | None = Field(None, description="velocity only: it stays where it is from then on [s]")
     waypoints: list[tuple[float, float, float, float]] | None = Field(
-        None, min_length=2, description="[t, x, y, z] centres at strictly increasing times [s, m]")
+        None, min_length=2, description="[t, x, y, z] centres at strictly increasing times [s, m]"
+    )
 
     @field_validator("stop")
     @classmethod
@@ -33,8 +34,10 @@ class MotionSpec(Strict):
     def _times_increase(cls, waypoints):
         for i in range(1, len(waypoints or ())):
             if waypoints[i][0] <= waypoints[i - 1][0]:
-                raise ValueError(f"times must be strictly increasing: waypoint {i} at t = {waypoints[i][0]:g} s "
-                                 f"follows t = {waypoints[i - 1][0]:g} s")
+                raise ValueError(
+                    f"times must be strictly increasing: waypoint {i} at t = {waypoints[i][0]:g} s "
+                    f"follows t = {waypoints[i - 1][0]:g} s"
+                )
         return waypoints
 
     @model_validator(mode="after")
@@ -75,8 +78,10 @@ class ObstacleSpec(Strict):
         if given is None:
             return raw | {"position": at_zero}
         if not np.allclose(given, at_zero, atol=1e-9):
-            raise ValueError(f"position {given.tolist()} is not the waypoints' centre at t = 0 "
-                             f"{[round(v, 9) for v in at_zero]}; leave position out or make them agree")
+            raise ValueError(
+                f"position {given.tolist()} is not the waypoints' centre at t = 0 "
+                f"{[round(v, 9) for v in at_zero]}; leave position out or make them agree"
+            )
         return raw
 
 
@@ -98,8 +103,11 @@ class BoxSpec(Strict):
     position: Vector3 = Field(description="centre [m]")
     yaw_deg: float = 0.0
     friction: PositiveFloat = 0.8
-    spinning_friction: float = Field(0.1, ge=0, description="torsional friction about a contact normal [m]: "
-                                                            "keeps the box from pivoting between the pads")
+    spinning_friction: float = Field(
+        0.1,
+        ge=0,
+        description="torsional friction about a contact normal [m]: keeps the box from pivoting between the pads",
+    )
     goal: Vector3 | None = Field(None, description="where the box should end (centre) [m]; success within 5 cm")
 
 
@@ -114,15 +122,21 @@ class PushSpec(Strict):
 
     name: str = Field(pattern=r"^[A-Za-z0-9_]+$", description="label; logged per step as push_<name>_N")
     body: str = Field(description="robot, box or an obstacle name")
-    link: str | None = Field(None, description="robot only: the link pushed (default: the base, the link the "
-                                               "base yaw joint moves)")
-    point: Vector3 | None = Field(None, description="where, in the link's frame (URDF link frame; box and "
-                                                    "obstacles: their body frame) [m]; default: its centre of mass")
+    link: str | None = Field(
+        None, description="robot only: the link pushed (default: the base, the link the base yaw joint moves)"
+    )
+    point: Vector3 | None = Field(
+        None,
+        description="where, in the link's frame (URDF link frame; box and "
+        "obstacles: their body frame) [m]; default: its centre of mass",
+    )
     force: Vector3 = Field(description="[fx, fy, fz] in the world frame [N]")
     start: float = Field(ge=0, description="[s]")
     duration: PositiveFloat = Field(description="[s]")
     stiffness: PositiveFloat | None = Field(
-        None, description="[N/m] a spring pusher instead of a set force: its tip travels |force| / stiffness along "
-                          "the force over the push's first quarter and holds there; it presses with stiffness x (tip "
-                          "travel - how far the point has given way along the force since the push began, beyond "
-                          "the motion it had then), never pulls: |force| against a body that does not give")
+        None,
+        description="[N/m] a spring pusher instead of a set force: its tip travels |force| / stiffness along "
+        "the force over the push's first quarter and holds there; it presses with stiffness x (tip "
+        "travel - how far the point has given way along the force since the push began, beyond "
+        "the motion it had then), never pulls: |force| against a body that does not give",
+    )

@@ -79,6 +79,7 @@ class Pushes:
         """Per push, `push_<name>_N`: a set force's magnitude if it acts at t, else 0; a spring pusher's force in
         the last physics substep (it depends on the motion still to come)."""
         set_force = lambda s: float(np.linalg.norm(s.force)) if active(s, t) else 0.0
-        return {f"push_{s.name}_N": set_force(s) if s.stiffness is None else float(np.linalg.norm(f))
-                for s, f in zip(self.specs, self.applied)}
-
+        return {
+            f"push_{s.name}_N": set_force(s) if s.stiffness is None else float(np.linalg.norm(f))
+            for s, f in zip(self.specs, self.applied)
+        }

@@ -57,8 +57,7 @@ class Simulation:
         self.client.setPhysicsEngineParameter(fixedTimeStep=sim_spec.physics_dt, deterministicOverlappingPairs=1)
         ground = self.client.createCollisionShape(pybullet.GEOM_PLANE)
         self.client.createMultiBody(0, ground)
-        self.body = self.client.loadURDF(str(robot.urdf), useFixedBase=True,
-                                         flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
+        self.body = self.client.loadURDF(str(robot.urdf), useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
         by_name = {}
         for i in range(self.client.getNumJoints(self.body)):
             info = self.client.getJointInfo(self.body, i)
@@ -77,8 +76,9 @@ class Simulation:
         self.wrists = WristSensors(self.client, self.body, [by_name[j] for j in robot.wrist_sensors], self.hand_links)
         if sim_spec.pad_stiffness is not None:  # compliant pads: what the force loop presses against is not rigid
             for link in {link for tool in self.wrists.tools for link in tool}:
-                self.client.changeDynamics(self.body, link, contactStiffness=sim_spec.pad_stiffness,
-                                           contactDamping=sim_spec.pad_damping)
+                self.client.changeDynamics(
+                    self.body, link, contactStiffness=sim_spec.pad_stiffness, contactDamping=sim_spec.pad_damping
+                )
         self.world = World(self.client, world) if world is not None else None
         base_link = self.joints[robot.base_joints[2]]  # the link the base yaw joint moves
         self.pushes = Pushes(self.client, pushes, self.body, base_link, self.world, sim_spec.physics_dt)
@@ -87,18 +87,23 @@ class Simulation:
     def observe(self) -> Observation:
         """What the controllers see: joints, hand frames, wrist wrenches and the box's pose."""
         states = self.client.getJointStates(self.body, self.joints)
-        links = self.client.getLinkStates(self.body, self.hand_links, computeForwardKinematics=True,
-                                          computeLinkVelocity=True)
+        links = self.client.getLinkStates(
+            self.body, self.hand_links, computeForwardKinematics=True, computeLinkVelocity=True
+        )
         box = self.world.box_pose() if self.world is not None and self.world.box is not None else None
         return Observation(
-            q=np.array([s[0] for s in states]), qd=np.array([s[1] for s in states]),
+            q=np.array([s[0] for s in states]),
+            qd=np.array([s[1] for s in states]),
             hand_positions=np.array([link[4] for link in links]),
-            hand_rotations=np.array([np.reshape(self.client.getMatrixFromQuaternion(link[5]), (3, 3))
-                                     for link in links]),
+            hand_rotations=np.array(
+                [np.reshape(self.client.getMatrixFromQuaternion(link[5]), (3, 3)) for link in links]
+            ),
             hand_velocities=np.array([link[6] for link in links]),
             heading_rate=float(np.mean([link[7][2] for link in links])),
             wrenches=self.wrists.read(),
-            box_position=None if box is None else box[0], box_yaw=0.0 if box is None else box[1])
+            box_position=None if box is None else box[0],
+            box_yaw=0.0 if box is None else box[1],
+        )
 
     def truth(self) -> Truth:
         """Ground truth for the logs (never for the controllers)."""
@@ -114,20 +119,38 @@ class Simulation:
                 robot[name] = world.clearance(self.body, name)
                 if box:
                     carried[name] = world.clearance(world.box, name)
-        return Truth(box_position=centre, box_z_axis=z_axis, box_touches_robot=bool(touching), pad_contact_N=contact,
-                     push_N=self.pushes.magnitudes(self.time), obstacle_positions=positions, clearance_robot_m=robot,
-                     clearance_box_m=carried)
+        return Truth(
+            box_position=centre,
+            box_z_axis=z_axis,
+            box_touches_robot=bool(touching),
+            pad_contact_N=contact,
+            push_N=self.pushes.magnitudes(self.time),
+            obstacle_positions=positions,
+            clearance_robot_m=robot,
+            clearance_box_m=carried,
+        )
 
     def apply(self, q_target: np.ndarray, qd_target: np.ndarray) -> None:
         base = [self.joints[i] for i in self.base]
-        self.client.setJointMotorControlArray(self.body, base, pybullet.VELOCITY_CONTROL,
-                                              targetVelocities=qd_target[self.base], forces=self.effort[self.base])
+        self.client.setJointMotorControlArray(
+            self.body,
+            base,
+            pybullet.VELOCITY_CONTROL,
+            targetVelocities=qd_target[self.base],
+            forces=self.effort[self.base],
+        )
         others = [self.joints[i] for i in self.others]
         n = len(others)
         self.client.setJointMotorControlArray(
-            self.body, others, pybullet.POSITION_CONTROL, targetPositions=q_target[self.others],
-            targetVelocities=qd_target[self.others], forces=self.effort[self.others],
-            positionGains=[self.spec.position_gain] * n, velocityGains=[self.spec.velocity_gain] * n)
+            self.body,
+            others,
+            pybullet.POSITION_CONTROL,
+            targetPositions=q_target[self.others],
+            targetVelocities=qd_target[self.others],
+            forces=self.effort[self.others],
+            positionGains=[self.spec.position_gain] * n,
+            velocityGains=[self.spec.velocity_gain] * n,
+        )
 
     def step(self, substeps: int) -> None:
         for _ in range(substeps):

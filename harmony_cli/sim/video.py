@@ -27,8 +27,9 @@ def frame_every(control_dt: float, fps: float) -> int:
 def _open_writer(path: Path, fps: float):
     if path.suffix.lower() == ".mp4":
         # macro_block_size=2: libx264/yuv420p needs even sides; imageio scales odd ones up by a pixel.
-        return imageio.get_writer(path, format="FFMPEG", mode="I", fps=fps, codec="libx264",
-                                  quality=7, macro_block_size=2)
+        return imageio.get_writer(
+            path, format="FFMPEG", mode="I", fps=fps, codec="libx264", quality=7, macro_block_size=2
+        )
     # Pillow can only save a whole animated GIF at close, so frames wait there: bits=8 keeps each
     # one as a 256-colour palette image (1 byte/pixel). Duration is per frame in ms; loop=0 repeats.
     return imageio.get_writer(path, format="pillow", mode="I", duration=1000.0 / fps, loop=0, bits=8)
@@ -37,19 +38,25 @@ def _open_writer(path: Path, fps: float):
 class VideoRecorder:
     """Records a caller-owned DIRECT BulletClient (never disconnected here) to `path`, a 3/4 view."""
 
-    def __init__(self, client, path: Path, fps: float = 25.0, size: tuple[int, int] = (640, 480),
-                 follow: Callable[[], np.ndarray] | None = None,
-                 target: Sequence[float] = DEFAULT_TARGET):
+    def __init__(
+        self,
+        client,
+        path: Path,
+        fps: float = 25.0,
+        size: tuple[int, int] = (640, 480),
+        follow: Callable[[], np.ndarray] | None = None,
+        target: Sequence[float] = DEFAULT_TARGET,
+    ):
         self.path = Path(path)
         if self.path.suffix.lower() not in VIDEO_SUFFIXES:
-            raise ValueError(f"cannot record video to {self.path}: suffix must be one of "
-                             f"{', '.join(VIDEO_SUFFIXES)}")
+            raise ValueError(f"cannot record video to {self.path}: suffix must be one of {', '.join(VIDEO_SUFFIXES)}")
         self.client, self.fps, self.follow = client, fps, follow
         self.width, self.height = size
         self.target = np.asarray(target, dtype=float)
         self.frames = 0
         self.projection = client.computeProjectionMatrixFOV(
-            fov=CAMERA_FOV, aspect=self.width / self.height, nearVal=0.05, farVal=50.0)
+            fov=CAMERA_FOV, aspect=self.width / self.height, nearVal=0.05, farVal=50.0
+        )
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._writer = _open_writer(self.path, fps)
 
@@ -60,10 +67,16 @@ class VideoRecorder:
     def render(self) -> np.ndarray:
         """One (height, width, 3) uint8 RGB image of the current world state."""
         view = self.client.computeViewMatrixFromYawPitchRoll(
-            cameraTargetPosition=self.look_at().tolist(), distance=CAMERA_DISTANCE,
-            yaw=CAMERA_YAW, pitch=CAMERA_PITCH, roll=0.0, upAxisIndex=2)
-        _, _, rgba, _, _ = self.client.getCameraImage(self.width, self.height, view, self.projection,
-                                                      renderer=pybullet.ER_TINY_RENDERER)
+            cameraTargetPosition=self.look_at().tolist(),
+            distance=CAMERA_DISTANCE,
+            yaw=CAMERA_YAW,
+            pitch=CAMERA_PITCH,
+            roll=0.0,
+            upAxisIndex=2,
+        )
+        _, _, rgba, _, _ = self.client.getCameraImage(
+            self.width, self.height, view, self.projection, renderer=pybullet.ER_TINY_RENDERER
+        )
         return np.asarray(rgba, dtype=np.uint8).reshape(self.height, self.width, 4)[..., :3]
 
     def capture(self) -> None:

@@ -34,8 +34,9 @@ class World:
         if spec.box is not None:
             b = spec.box
             shape = client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=np.asarray(b.size) / 2)
-            visual = client.createVisualShape(pybullet.GEOM_BOX, halfExtents=np.asarray(b.size) / 2,
-                                              rgbaColor=[0.85, 0.6, 0.3, 1])
+            visual = client.createVisualShape(
+                pybullet.GEOM_BOX, halfExtents=np.asarray(b.size) / 2, rgbaColor=[0.85, 0.6, 0.3, 1]
+            )
             self.box = client.createMultiBody(b.mass, shape, visual, b.position, _quaternion(b.yaw_deg))
             client.changeDynamics(self.box, -1, lateralFriction=b.friction, spinningFriction=b.spinning_friction)
 
@@ -43,16 +44,25 @@ class World:
         c = self.client
         top_half = [t.top[0] / 2, t.top[1] / 2, t.thickness / 2]
         colour = [0.55, 0.45, 0.35, 1]
-        top = c.createMultiBody(0, c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=top_half),
-                                c.createVisualShape(pybullet.GEOM_BOX, halfExtents=top_half, rgbaColor=colour),
-                                [*t.position, t.height - t.thickness / 2], _quaternion(t.yaw_deg))
+        top = c.createMultiBody(
+            0,
+            c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=top_half),
+            c.createVisualShape(pybullet.GEOM_BOX, halfExtents=top_half, rgbaColor=colour),
+            [*t.position, t.height - t.thickness / 2],
+            _quaternion(t.yaw_deg),
+        )
         c.changeDynamics(top, -1, lateralFriction=t.friction)
         bodies = [top]
         for leg in table_legs(t):
-            bodies.append(c.createMultiBody(
-                0, c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=leg.half),
-                c.createVisualShape(pybullet.GEOM_BOX, halfExtents=leg.half, rgbaColor=colour),
-                leg.centre, _quaternion(t.yaw_deg)))
+            bodies.append(
+                c.createMultiBody(
+                    0,
+                    c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=leg.half),
+                    c.createVisualShape(pybullet.GEOM_BOX, halfExtents=leg.half, rgbaColor=colour),
+                    leg.centre,
+                    _quaternion(t.yaw_deg),
+                )
+            )
         return bodies
 
     def _obstacle(self, o) -> int:
@@ -71,8 +81,9 @@ class World:
     def move_obstacles(self, t: float) -> None:
         """Every moving obstacle to where its motion says at time t."""
         for name, o in self.moving.items():
-            self.client.resetBasePositionAndOrientation(self.obstacles[name], centre_at(o, t)[0].tolist(),
-                                                        _quaternion(o.yaw_deg))
+            self.client.resetBasePositionAndOrientation(
+                self.obstacles[name], centre_at(o, t)[0].tolist(), _quaternion(o.yaw_deg)
+            )
 
     def obstacle_position(self, name: str) -> np.ndarray:
         """An obstacle's centre as PyBullet has it."""

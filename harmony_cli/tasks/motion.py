@@ -5,7 +5,7 @@ known from the scenario), sampled at their own knot / sample times."""
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

@@ -31,9 +31,14 @@ class TaskReferences:
         self.home_rotations = np.array([r for _, r in poses])
         p0, p1 = (p.ravel() for p, _ in poses)
         offset = -np.arctan2(p1[1] - p0[1], p1[0] - p0[0])  # home heading is 0 (base yaw 0 at home)
-        obstacles = [Obstacle(obstacle_shape(o), o.margin + scenario.planner.hand_radius,
-                              partial(centre_at, o) if o.motion is not None else None)  # the true motion predicts
-                     for o in scenario.world.obstacles]
+        obstacles = [
+            Obstacle(
+                obstacle_shape(o),
+                o.margin + scenario.planner.hand_radius,
+                partial(centre_at, o) if o.motion is not None else None,
+            )  # the true motion predicts
+            for o in scenario.world.obstacles
+        ]
         self.planner = TaskPlanner(scenario.planner, obstacles, self.home_rotations, offset)
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
         box = scenario.world.box
@@ -72,9 +77,16 @@ class TaskReferences:
         else:
             state = HandState(obs.hand_positions, obs.hand_velocities, heading, obs.heading_rate)
         if holding and self.box_drop is None:
-            self.box_drop = obs.hand_positions[:, 2].mean() - (obs.box_position[2] - self.scenario.world.box.size[2] / 2)
-        self.result = self.planner.step(t, state, self.goal, active.end, active.index,
-                                        self.box_radius if holding else None, self.box_drop or 0.0)
-        return {"planner_ms": 1e3 * self.result.solve_time, "planner_status": self.result.status,
-                "planner_success": self.result.success, "planner_iterations": self.result.iterations,
-                "planner_clearance_m": self.result.min_clearance}
+            self.box_drop = obs.hand_positions[:, 2].mean() - (
+                obs.box_position[2] - self.scenario.world.box.size[2] / 2
+            )
+        self.result = self.planner.step(
+            t, state, self.goal, active.end, active.index, self.box_radius if holding else None, self.box_drop or 0.0
+        )
+        return {
+            "planner_ms": 1e3 * self.result.solve_time,
+            "planner_status": self.result.status,
+            "planner_success": self.result.success,
+            "planner_iterations": self.result.iterations,
+            "planner_clearance_m": self.result.min_clearance,
+        }
