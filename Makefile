@@ -5,16 +5,26 @@ STAMP := $(VENV)/.installed
 HARMONY := $(VENV)/bin/harmony
 TABLE1 := scenarios/paper/table1_s_shape.yaml
 
-.PHONY: install test test-slow bench reproduce-paper clean
+.PHONY: install lint test test-slow bench reproduce-paper docs clean
 
-$(STAMP): pyproject.toml
+# Ranges live in pyproject.toml; constraints.txt pins the versions every install uses (refresh it with
+# `.venv/bin/pip freeze | grep -v '^-e' > constraints.txt` after a deliberate upgrade).
+$(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "harmony needs Python 3.11 (PyBullet wheels)"'
 	$(PYTHON) -m venv $(VENV)
 	$(VENV)/bin/pip install -q --upgrade pip
-	$(VENV)/bin/pip install -q -e '.[test]'
+	$(VENV)/bin/pip install -q -c constraints.txt -e '.[test,dev]'
 	touch $(STAMP)
 
 install: $(STAMP)
+
+# ruff (lint + format), mypy, import contracts (import-linter), module and function sizes
+lint: $(STAMP)
+	$(VENV)/bin/ruff check harmony_cli tests tools
+	$(VENV)/bin/ruff format --check harmony_cli tests tools
+	$(VENV)/bin/mypy
+	$(VENV)/bin/lint-imports
+	$(VENV)/bin/python tools/check_sizes.py harmony_cli
 
 test: $(STAMP)
 	$(VENV)/bin/pytest -q

@@ -33,9 +33,13 @@ class Replay:
         scenario = load_scenario(path, overrides)
         self.robot = load_robot(scenario.robot, path.parent)
         self.mpc = WholeBodyMPC(self.robot, scenario, scenario.sim.control_dt)
+        if scenario.reference is None:
+            raise ValueError(f"{path}: the bench replays a hand reference; this scenario has a task")
         self.reference = HandReference(scenario.reference, self.robot.hand_poses_numeric(self.robot.home))
         self.dt, self.start, self.q = scenario.sim.control_dt, start, self.robot.home.copy()
-        self.times, self.iterations, self.failures = [], [], 0
+        self.times: list[float] = []
+        self.iterations: list[int] = []
+        self.failures = 0
 
     def step(self, k: int) -> None:
         t = self.start + k * self.dt
@@ -86,7 +90,9 @@ def _rows(results: dict, knots: list[int]) -> list[list[str]]:
         other = results.get((solver, "bezier", k)) if tr == "traditional" else None
         ratio_tb = f"{r['median'] / other['median']:.2f}" if other else ""
         small, large = results.get((solver, tr, min(knots))), results.get((solver, tr, max(knots)))
-        ratio_k = f"{large['median'] / small['median']:.2f}" if k == max(knots) and small and len(knots) > 1 else ""
+        ratio_k = ""
+        if k == max(knots) and small and large and len(knots) > 1:
+            ratio_k = f"{large['median'] / small['median']:.2f}"
         label = f"{solver} ({r['qp']})" if r["qp"] else solver
         times = [f"{r[key]:.2f}" for key in ("median", "p95", "max")]
         rows.append([label, tr, str(k), str(r["n_vars"]), *times, f"{r['iterations']:.0f}", str(r["failures"])])

@@ -61,6 +61,8 @@ def build(scenario: Scenario, scenario_dir: Path) -> Built:
     if scenario.task is not None:
         references = TaskReferences(robot, scenario)
         return Built(robot, mpc, sim, references, TaskWatch(references), obstacle_predictor(scenario.world.obstacles))
+    if scenario.reference is None:  # validation leaves exactly one of task / reference
+        raise ValueError(f"{scenario.name}: neither a task nor a reference")
     reference = HandReference(scenario.reference, robot.hand_poses_numeric(robot.home))
     return Built(robot, mpc, sim, trajectory_references(reference), None, obstacle_predictor(scenario.world.obstacles))
 

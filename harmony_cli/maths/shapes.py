@@ -8,9 +8,13 @@ closest points, and the tests compare the two.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import casadi as cs
 import numpy as np
+
+if TYPE_CHECKING:
+    from harmony_cli.scenario.world import ObstacleSpec, TableSpec
 
 
 @dataclass(frozen=True)
@@ -55,7 +59,7 @@ class Shape:
         return d, self._to_world(grad)
 
 
-def obstacle_shape(spec) -> Shape:
+def obstacle_shape(spec: ObstacleSpec) -> Shape:
     """The shape of a scenario obstacle (ObstacleSpec) where it is at t = 0."""
     half = np.asarray(spec.size, dtype=float) / 2
     if spec.shape == "sphere":
@@ -66,13 +70,13 @@ def obstacle_shape(spec) -> Shape:
 LEG = 0.05  # [m] square table legs, inset by one leg width from the corners
 
 
-def table_shape(spec) -> Shape:
+def table_shape(spec: TableSpec) -> Shape:
     """A table's (TableSpec) outline: a block from the floor to its top (for plots)."""
     half = np.array([spec.top[0] / 2, spec.top[1] / 2, spec.height / 2])
     return Shape("box", np.array([*spec.position, spec.height / 2]), np.deg2rad(spec.yaw_deg), half)
 
 
-def table_legs(spec) -> list[Shape]:
+def table_legs(spec: TableSpec) -> list[Shape]:
     """The four legs of a table (TableSpec): what a base (lower than the top) must stay out of; it may pass
     under the top."""
     yaw, half_height = np.deg2rad(spec.yaw_deg), (spec.height - spec.thickness) / 2
@@ -86,7 +90,7 @@ def table_legs(spec) -> list[Shape]:
     return legs
 
 
-def table_top_pose(spec) -> tuple[np.ndarray, float]:
+def table_top_pose(spec: TableSpec) -> tuple[np.ndarray, float]:
     """Position of a table's top surface centre and its yaw (what relative targets are measured from)."""
     return np.array([*spec.position, spec.height]), float(np.deg2rad(spec.yaw_deg))
 

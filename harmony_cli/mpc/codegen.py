@@ -56,9 +56,9 @@ class Buffered:
         self.res = {n: np.zeros(f.nnz_out(i)) for i, n in enumerate(f.name_out())}
         self._buffer, self._eval = f.buffer()
         for i, n in enumerate(f.name_in()):
-            self._buffer.set_arg(i, memoryview(self.args[n]))
+            self._buffer.set_arg(i, self.args[n].data)
         for i, n in enumerate(f.name_out()):
-            self._buffer.set_res(i, memoryview(self.res[n]))
+            self._buffer.set_res(i, self.res[n].data)
 
     def __call__(self, **inputs) -> dict[str, np.ndarray]:
         for name, value in inputs.items():

@@ -4,6 +4,7 @@ and real-time iteration (one QP per control step)."""
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import casadi as cs
 import numpy as np
@@ -25,12 +26,13 @@ class GaussNewtonSolver:
         self.constraints = KnotConstraints(problem) if problem.constraint is not None else None
         rows = "" if self.constraints is None else f", clearance rows linearised ({self.constraints.code_path})"
         self.path = f"{name}: {qp} QP, derivatives from {self.model.code_path} per-knot maps{rows}"
-        self.qp_name, self.options = qp, {"error_on_fail": False}
+        self.qp_name = qp
+        self.options: dict[str, Any] = {"error_on_fail": False}
         if qp == "qpoases":
             self.options |= {"printLevel": "none"}
         elif qp == "osqp":
             self.options |= {"osqp": {"verbose": False, "eps_abs": 1e-6, "eps_rel": 1e-6, "max_iter": 4000}}
-        self._qps = {}
+        self._qps: dict[bytes, tuple] = {}
         self.regularisation = 1e-6
 
     def _qp(self, free: np.ndarray):

@@ -41,7 +41,7 @@ class KnotDerivatives:
         maps = {kind: compiled(f) for kind, f in self.knot_functions.items()}
         self.code_path = code_path(maps["value"])  # compiled C, or CasADi's VM without gcc
         self.knots = {kind: Buffered(f) for kind, f in maps.items()}
-        self._cache = {}
+        self._cache: dict[str, tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]] = {}
         self.L, self.Lt, self.c = sp.csr_matrix(problem.L), sp.csr_matrix(problem.L.T), problem.c
         self.S = sp.csr_matrix(problem.S if problem.S is not None else (problem.c.size, problem.p.numel()))
         # block (a, b) of the position Hessian is sum_k B[k, a] B[k, b] H_k; (b, a) is the same matrix (H_k
@@ -126,12 +126,14 @@ class KnotConstraints:
     obstacle) may stay there but not go deeper, so the problem stays feasible."""
 
     def __init__(self, problem: Problem):
-        self.B, n = problem.position_basis, problem.n_vars
-        (K, npos), nd = self.B.shape, problem.constraint.size1_in(0)
-        q, ref = (cs.SX.sym(name, problem.constraint.size1_in(i)) for i, name in enumerate(("q", "ref")))
-        h = problem.constraint(q, ref)
+        if problem.constraint is None:
+            raise ValueError("KnotConstraints needs a problem with constraint rows")
+        self.B, n, constraint = problem.position_basis, problem.n_vars, problem.constraint
+        (K, npos), nd = self.B.shape, constraint.size1_in(0)
+        q, ref = (cs.SX.sym(name, constraint.size1_in(i)) for i, name in enumerate(("q", "ref")))
+        h = constraint(q, ref)
         self.m, self.n_dof, self.n_rows = h.numel(), nd, (K - 1) * h.numel()
-        self.function, self.n_ref = problem.constraint, problem.constraint.size1_in(1)
+        self.function, self.n_ref = constraint, constraint.size1_in(1)
         J = cs.jacobian(h, q)
         rows = compiled(cs.Function("harmony_clearance", [q, ref], [h, cs.densify(J.T)]).map(K))
         self.code_path, self.map = code_path(rows), Buffered(rows)

@@ -9,6 +9,7 @@ arrays cross into CasADi without copies.
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import casadi as cs
 import numpy as np
@@ -33,7 +34,7 @@ class NlpSolver:
     def __init__(self, problem: Problem, plugin: str, options: dict, hessian: str = "gauss_newton"):
         if plugin not in available_nlp_plugins():
             raise SolverUnavailable(unavailable_message(plugin))
-        defaults = {"print_time": False, "record_time": True, "calc_lam_p": False}
+        defaults: dict[str, Any] = {"print_time": False, "record_time": True, "calc_lam_p": False}
         if plugin == "ipopt":  # warm-started: a small initial barrier takes 3 iterations, not 5-12, to the optimum;
             # MUMPS's scaling (MC64) costs ~2 ms per solve and our KKT systems are well scaled (make bench)
             defaults |= {
@@ -78,7 +79,7 @@ class NlpSolver:
         )
         self.path = f"{plugin}: cost through the {cost}{rows}"
         self.lam_x, self.lam_g = np.zeros(problem.n_vars), np.zeros(problem.A.shape[0] + self.n_rows)
-        self._solvers = {}
+        self._solvers: dict[bytes, tuple] = {}
         self._solver(np.ones(problem.n_vars, dtype=bool))  # checks the options now, not at the first solve
 
     def _solver(self, free: np.ndarray):
@@ -166,10 +167,10 @@ class SymbolicNlpSolver:
     def __init__(self, problem: Problem, plugin: str, options: dict, reason: str = ""):
         self.constraints = KnotConstraints(problem) if problem.constraint is not None else None
         g = cs.mtimes(cs.DM(problem.A), problem.x)
-        if self.constraints is not None:
+        if self.constraints is not None and problem.constraint_at_knots is not None:
             (K, npos), nd = problem.position_basis.shape, self.constraints.n_dof
             q = cs.mtimes(cs.reshape(problem.x[: nd * npos], nd, npos), cs.DM(problem.position_basis.T))
-            h = problem.constraint.map(K)(q, cs.reshape(problem.p, problem.ref_shape[0], K))
+            h = problem.constraint_at_knots(q, cs.reshape(problem.p, problem.ref_shape[0], K))
             g = cs.vertcat(g, cs.vec(h[:, 1:]))
         nlp = {"x": problem.x, "p": problem.p, "f": sum(problem.terms.values()), "g": g}
         try:

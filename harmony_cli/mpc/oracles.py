@@ -15,6 +15,7 @@ class Oracle(cs.Callback):
 
     def __init__(self, model: KnotDerivatives, kind: str, n_p: int):
         cs.Callback.__init__(self)
+        self.grad: Oracle | None = None  # the gradient callback, whose reverse mode f has (set by the user)
         self.model, self.kind, self.sizes, n = model, kind, (model.n_vars, n_p), model.n_vars
         self.out = {
             "f": [cs.Sparsity.dense(1)],
@@ -43,6 +44,8 @@ class Oracle(cs.Callback):
 
     def get_reverse(self, n_adj, name, inames, onames, opts):  # df = gradient dx (nlpsol builds nlp_grad with it)
         x, p, f, adj = (cs.MX.sym(v, s) for v, s in zip("xpfa", (*self.sizes, 1, 1)))
+        if self.grad is None:
+            raise RuntimeError("Oracle('f') needs its gradient oracle in .grad for reverse mode")
         return cs.Function(name, [x, p, f, adj], [adj * self.grad(x, p)[1], cs.MX(self.sizes[1], 1)], inames, onames)
 
     def eval_buffer(self, arg, res):  # CasADi passes None for zero inputs and for outputs it does not want

@@ -126,7 +126,9 @@ class TaskPlanner:
                 {"error_on_fail": False},
             )
         )
-        self.C, self.phase, self.t_plan, self.T_plan = None, None, 0.0, 1.0
+        self.C: np.ndarray | None = None  # the last good plan's control points, over [t_plan, t_plan + T_plan]
+        self.phase: int | None = None
+        self.t_plan, self.T_plan = 0.0, 1.0
         self.path = f"Gauss-Newton SQP on the control points, {spec.qp} QP, numpy derivatives"
 
     def _fixed(self, C: np.ndarray, state: HandState, goal: np.ndarray, goal_heading: float, T: float):
@@ -195,7 +197,7 @@ class TaskPlanner:
         status += suffix
         if success:
             self.C, self.phase, self.t_plan, self.T_plan = C, phase, t, T
-        elif self.C is None:
+        if self.C is None:
             raise RuntimeError(f"first planner solve failed ({status}); no plan to hold")
         plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
         return PlannerResult(plan, success, status, it, time.perf_counter() - start_time, clearance)
@@ -268,7 +270,7 @@ class TaskPlanner:
             moved = 0.0 if obstacle.motion is None else obstacle.motion(t + T * self.s) - obstacle.shape.centre
             for k, (p, (w0, w1)) in enumerate(zip(points, weights)):
                 active = k < 2 or carried is not None
-                shape = obstacle.shape if k < 2 or not active else obstacle.shape.grown(carried[0])
+                shape = obstacle.shape.grown(carried[0]) if k == 2 and carried is not None else obstacle.shape
                 dist, grad = shape.distance(p - moved)
                 needed = obstacle.clearance
                 row = np.zeros((n, ROWS, self.M))

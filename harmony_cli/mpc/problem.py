@@ -108,7 +108,9 @@ def linear_rows(x: cs.SX, named: dict[str, tuple]) -> tuple[np.ndarray, np.ndarr
             raise ValueError(f"constraint {name!r} is not linear in the decision variables")
         jac = cs.Function("row_jacobian", [x], [cs.jacobian(expr, x), expr])
         a, offset = (np.array(v) for v in jac(np.zeros(x.numel())))
-        A.append(a), lb.append(np.asarray(lo) - offset.ravel()), ub.append(np.asarray(hi) - offset.ravel())
+        A.append(a)
+        lb.append(np.asarray(lo) - offset.ravel())
+        ub.append(np.asarray(hi) - offset.ravel())
     if not A:
         return np.zeros((0, x.numel())), np.zeros(0), np.zeros(0)
     return np.vstack(A), np.concatenate(lb), np.concatenate(ub)

@@ -97,9 +97,12 @@ class WholeBodyMPC:
         x0 = self._constant(q_init) if self.x is None else t.shift(self.x, dt)
         result = self.solver.solve(np.clip(x0, lbx, ubx), lbx, ubx, self.params)
         held = not result.success
-        if held and self.x is None:
+        if not held:
+            self.x = result.x
+        elif self.x is None:
             raise RuntimeError(f"first whole-body MPC solve failed ({result.status}); no plan to hold")
-        self.x = t.shift(self.x, dt) if held else result.x
+        else:
+            self.x = t.shift(self.x, dt)
         # A held plan is read out from its shifted copy: it continues from where it was, not from q_now.
         q_cmd, qd_cmd = t.readout(self.x, dt)
         base = list(robot.base_joints)  # velocity-commanded: the plan's mean velocity over the period

@@ -53,7 +53,7 @@ def _frame(video: Path, target: Path, at: float = 0.5) -> Path | None:
         return None
     reader = imageio.get_reader(video)
     try:
-        n = reader.count_frames()
+        n = reader.count_frames()  # type: ignore[attr-defined]  # the FFMPEG reader has it
         imageio.imwrite(target, reader.get_data(int(at * max(n - 1, 0))))
     finally:
         reader.close()

@@ -4,11 +4,17 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pandas as pd
 
 from harmony_cli.report.figure import plt, save
 from harmony_cli.report.metrics import AFTER_PUSH_S
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from harmony_cli.scenario.world import PushSpec
 
 
 def _shade_phases(ax, steps: pd.DataFrame) -> None:
@@ -34,7 +40,7 @@ def _shade_phases(ax, steps: pd.DataFrame) -> None:
         )
 
 
-def _shade_push(ax, push, label: bool = True) -> None:
+def _shade_push(ax, push: PushSpec, label: bool = True) -> None:
     ax.axvspan(
         push.start,
         push.start + push.duration,
@@ -45,7 +51,7 @@ def _shade_push(ax, push, label: bool = True) -> None:
     )
 
 
-def plot_forces(out: Path, steps: pd.DataFrame, hands: list[str], pushes=()) -> Path:
+def plot_forces(out: Path, steps: pd.DataFrame, hands: list[str], pushes: Sequence[PushSpec] = ()) -> Path:
     """force_tracking.png: per hand, the sensed pad normal force (and PyBullet's pad-box contact force) against
     the squeeze-force reference when logged; task phases shaded and labelled, pushes in red."""
     fig, axes = plt.subplots(len(hands), 1, figsize=(9, 2.6 * len(hands)), sharex=True, squeeze=False)

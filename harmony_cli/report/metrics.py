@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
+
+if TYPE_CHECKING:
+    from harmony_cli.scenario import PushSpec, Scenario
 
 
 def time_stats_ms(values) -> dict[str, float]:
@@ -42,7 +47,7 @@ UPRIGHT_DEG = 10.0
 REACHED = 0.03  # [m] both hands this close to their phase goal: the phase is complete
 
 
-def task_outcome(steps: pd.DataFrame, scenario, hands: list[str]) -> dict:
+def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> dict:
     """Success (box on its goal within 5 cm, upright, never dropped), clearances, phase completion, loop time."""
     out: dict = {
         "loop_time_ms": time_stats_ms(steps["loop_ms"]),
@@ -51,7 +56,7 @@ def task_outcome(steps: pd.DataFrame, scenario, hands: list[str]) -> dict:
     }
     yaw = steps[f"q_{scenario.robot.base_joints[2]}"]
     out["base_yaw_range_deg"] = float(np.degrees(yaw.max() - yaw.min()))
-    clearances = {}
+    clearances: dict[str, dict[str, float]] = {}
     for column in steps.columns:
         if column.startswith("clearance_"):
             _, who, *name, _ = column.split("_")
@@ -61,7 +66,7 @@ def task_outcome(steps: pd.DataFrame, scenario, hands: list[str]) -> dict:
     out["min_clearance_moving_m"] = {name: clearances[name] for name in moving if name in clearances}
     phases = []
     goal_error = steps[[f"{h}_goal_error_m" for h in hands]].max(axis=1)
-    for index, phase in enumerate(scenario.task.phases):
+    for index, phase in enumerate(scenario.task.phases if scenario.task else []):
         rows = steps["phase_index"] == index
         reached = steps["t"][rows & (goal_error < REACHED + phase.squeeze / 2)]  # a squeeze goal is inside the box
         start = float(steps["t"][rows].min()) if rows.any() else None
@@ -151,7 +156,7 @@ def recovery_time(
     return None
 
 
-def push_windows(push, after: float = AFTER_PUSH_S) -> tuple[tuple[float, float], tuple[float, float]]:
+def push_windows(push: PushSpec, after: float = AFTER_PUSH_S) -> tuple[tuple[float, float], tuple[float, float]]:
     """The baseline window just before a push and the push's own window [start, end + after), equally long."""
     length = push.duration + after
     return (max(0.0, push.start - length), push.start), (push.start, push.start + length)

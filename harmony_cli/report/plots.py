@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pandas as pd
 
@@ -10,8 +11,11 @@ from harmony_cli.report.figure import plt, save
 from harmony_cli.report.force_plots import plot_forces, plot_push
 from harmony_cli.report.scene_plots import plot_top_down
 
+if TYPE_CHECKING:
+    from harmony_cli.scenario import Scenario
 
-def plot_run_dir(out: Path, steps: pd.DataFrame, scenario, summary: dict) -> None:
+
+def plot_run_dir(out: Path, steps: pd.DataFrame, scenario: Scenario, summary: dict) -> None:
     """Every figure of a run directory: solve time, hand paths, tracking error; the top-down view of a task; force
     tracking and each push's response when the run has them."""
     hands = list(scenario.robot.end_effectors)

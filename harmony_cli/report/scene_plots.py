@@ -4,6 +4,7 @@ box paths; several runs of one scene overlaid."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -11,6 +12,12 @@ from matplotlib.patches import Circle, Polygon
 
 from harmony_cli.maths.shapes import obstacle_shape, table_shape
 from harmony_cli.report.figure import plt, save
+
+if TYPE_CHECKING:
+    from harmony_cli.scenario.world import ObstacleSpec
+
+if TYPE_CHECKING:
+    from harmony_cli.scenario import Scenario
 
 
 def _outline(shape, centre=None, **style):
@@ -24,7 +31,7 @@ def _outline(shape, centre=None, **style):
     return Polygon(centre + corners @ np.array([[c, s], [-s, c]]), closed=True, **style)
 
 
-def _draw_obstacle(ax, spec, steps: pd.DataFrame, colour: str = "indianred", label: str = "") -> None:
+def _draw_obstacle(ax, spec: ObstacleSpec, steps: pd.DataFrame, colour: str = "indianred", label: str = "") -> None:
     """A static obstacle; a moving one as its track (logged by PyBullet) with its outline where it started and
     where it came closest to the robot, labelled with that time."""
 
@@ -43,7 +50,7 @@ def _draw_obstacle(ax, spec, steps: pd.DataFrame, colour: str = "indianred", lab
     ax.annotate(f"{spec.name}\nt = {steps['t'].iloc[i]:.1f} s", track[i], ha="center", fontsize=7)
 
 
-def _footprints(ax, steps: pd.DataFrame, scenario, every: float = 2.0, colour: str = "grey") -> None:
+def _footprints(ax, steps: pd.DataFrame, scenario: Scenario, every: float = 2.0, colour: str = "grey") -> None:
     """The circles the whole-body MPC keeps clear, every `every` seconds."""
 
     bx, by, byaw = (steps[f"q_{j}"].to_numpy() for j in scenario.robot.base_joints)
@@ -55,7 +62,9 @@ def _footprints(ax, steps: pd.DataFrame, scenario, every: float = 2.0, colour: s
             )
 
 
-def plot_top_down(out: Path, steps: pd.DataFrame, scenario, hands: list[str], name: str = "top_down.png") -> None:
+def plot_top_down(
+    out: Path, steps: pd.DataFrame, scenario: Scenario, hands: list[str], name: str = "top_down.png"
+) -> None:
     """Base footprint every 2 s, base and hand paths, tables, obstacles (moving ones: their tracks), box path and
     goal (top-down)."""
     fig, ax = plt.subplots(figsize=(8, 6))
@@ -75,15 +84,16 @@ def plot_top_down(out: Path, steps: pd.DataFrame, scenario, hands: list[str], na
         ax.plot(steps[f"{hand}_meas_x"], steps[f"{hand}_meas_y"], lw=1, label=f"{hand} hand")
     if "box_x" in steps:
         ax.plot(steps["box_x"], steps["box_y"], color="darkorange", lw=1.5, label="box")
-        if scenario.world.box.goal:
-            ax.plot(*scenario.world.box.goal[:2], "k*", ms=10, label="box goal")
+        goal = scenario.world.box.goal if scenario.world.box else None
+        if goal:
+            ax.plot(*goal[:2], "k*", ms=10, label="box goal")
     ax.set(xlabel="x [m]", ylabel="y [m]", title=f"{scenario.name}: top-down", aspect="equal")
     ax.autoscale_view()
     ax.legend(fontsize=8, loc="best")
     save(fig, out / name)
 
 
-def _draw_paths(ax, ax_t, label: str, steps: pd.DataFrame, scenario, colour: str) -> None:
+def _draw_paths(ax, ax_t, label: str, steps: pd.DataFrame, scenario: Scenario, colour: str) -> None:
     """One run's base, hand and box paths (top-down, a dot every 2 s) and its progress against time."""
     bx, by = (steps[f"q_{j}"].to_numpy() for j in scenario.robot.base_joints[:2])
     every = max(1, int(round(2.0 / scenario.sim.control_dt)))
@@ -100,7 +110,7 @@ def _draw_paths(ax, ax_t, label: str, steps: pd.DataFrame, scenario, colour: str
     ax_t.plot(steps["t"], travelled, color=colour, lw=1.5, label=f"{label}: {what}")
 
 
-def plot_paths_compared(path: Path, runs: dict[str, tuple[pd.DataFrame, object]], title: str = "") -> Path:
+def plot_paths_compared(path: Path, runs: dict[str, tuple[pd.DataFrame, Scenario]], title: str = "") -> Path:
     """Runs of one scene overlaid, one colour each. Left, top-down: base, hand and box paths with a dot every 2 s,
     and each run's obstacles (a moving one as its track; tables and static obstacles once). Right, against time:
     how far the box (else the base) has gone, and the robot's PyBullet clearance to each moving obstacle."""

@@ -42,7 +42,7 @@ def _column(s: dict) -> str:
 
 def _ours(s: dict) -> dict[str, str]:
     """Everything the run measured; a run that failed part-way still shows what it built and measured."""
-    rows = {}
+    rows: dict[str, str] = {}
     if "decision_variables" in s:
         bezier = s["transcription"] == "bezier"
         n_dof = s["n_dof"]
@@ -106,7 +106,7 @@ def _disturbance(task: dict) -> dict[str, str]:
 
 
 def _paper(s: dict) -> dict[str, str] | None:
-    values = PAPER.get((s.get("transcription"), s.get("knots")))
+    values = PAPER.get((str(s.get("transcription")), int(s.get("knots") or 0)))
     if values is None or s.get("horizon_s") != 5.0:
         return None
     bezier = s["transcription"] == "bezier"
@@ -181,7 +181,7 @@ def compare_report(
     main_solver = main_solver or (solvers[0] if solvers else None)
     main = [r for r in runs if r["summary"].get("solver") == main_solver]
     paper = grid_keys is None or bool({"mpc.transcription", "mpc.knots"} & set(grid_keys))
-    title = "Whole-body MPC: traditional vs Bezier" if paper else f"Ablation over {', '.join(grid_keys)}"
+    title = "Whole-body MPC: traditional vs Bezier" if paper else f"Ablation over {', '.join(grid_keys or [])}"
     paths = write_table(main, out, name, f"{title} ({main_solver})", paper)
     if len(set(solvers)) > 1:
         paths += write_table(runs, out, f"{name}_extended", f"{title}: every solver mode", paper)

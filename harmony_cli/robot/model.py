@@ -51,7 +51,8 @@ class Robot:
         return self.model.get_global_link_position(link, q), self.model.get_global_link_rotation(link, q)
 
     def hand_poses_numeric(self, q: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-        return [tuple(np.array(cs.DM(a)) for a in self.hand_pose(h, q)) for h in range(len(self.end_effectors))]
+        poses = [self.hand_pose(h, q) for h in range(len(self.end_effectors))]
+        return [(np.array(cs.DM(p)), np.array(cs.DM(r))) for p, r in poses]
 
 
 def load_robot(spec: RobotSpec, scenario_dir: Path) -> Robot:

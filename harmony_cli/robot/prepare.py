@@ -13,6 +13,8 @@ import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+from harmony_cli.robot.urdf import required
+
 PACKAGE_SCHEME = "package://"
 BASE_LIMIT = 1000.0
 BASE_EFFORT = 1e4
@@ -22,7 +24,7 @@ BASE_TYPES = ("prismatic", "prismatic", "revolute")
 LINK_PREFIXES = ("", "harmony_")  # the first one whose new link names are all free is used
 
 
-def prepare_urdf(urdf: Path, base_joints: tuple[str, str, str], package_paths: list[Path], cache_dir: Path) -> Path:
+def prepare_urdf(urdf: Path, base_joints: tuple[str, ...], package_paths: list[Path], cache_dir: Path) -> Path:
     """Return a URDF with the virtual base `base_joints` and absolute mesh paths.
 
     The original path comes back when nothing had to change; otherwise the rewritten URDF is
@@ -41,7 +43,7 @@ def prepare_urdf(urdf: Path, base_joints: tuple[str, str, str], package_paths: l
     return _write_cached(text, urdf.stem, Path(cache_dir))
 
 
-def _ensure_base_joints(robot: ET.Element, urdf: Path, base_joints: tuple[str, str, str]) -> bool:
+def _ensure_base_joints(robot: ET.Element, urdf: Path, base_joints: tuple[str, ...]) -> bool:
     """Add the x/y/yaw base joints above the root link unless they all exist; True if added."""
     joint_names = {joint.get("name") for joint in robot.findall("joint")}
     present = [name for name in base_joints if name in joint_names]
@@ -70,8 +72,8 @@ def _ensure_base_joints(robot: ET.Element, urdf: Path, base_joints: tuple[str, s
 
 def _root_link(robot: ET.Element, urdf: Path) -> str:
     """The one link that is no joint's child."""
-    children = {joint.find("child").get("link") for joint in robot.findall("joint")}
-    roots = [link.get("name") for link in robot.findall("link") if link.get("name") not in children]
+    children = {required(joint.find("child"), "link", "joint child") for joint in robot.findall("joint")}
+    roots = [required(link, "name", "link") for link in robot.findall("link") if link.get("name") not in children]
     if len(roots) != 1:
         raise ValueError(f"{urdf}: expected one root link, found {roots}")
     return roots[0]

@@ -10,31 +10,45 @@ if TYPE_CHECKING:
     from harmony_cli.scenario.robot import RobotSpec
 
 
+def required(element: ET.Element | None, attribute: str, where: str = "") -> str:
+    """An attribute the URDF format requires; ValueError naming it when it is missing."""
+    value = None if element is None else element.get(attribute)
+    if value is None:
+        raise ValueError(f"URDF {where or 'element'}: missing {attribute!r}")
+    return value
+
+
 def joints_and_links(urdf: Path) -> tuple[set[str], set[str]]:
     root = ET.parse(urdf).getroot()
-    return {j.get("name") for j in root.iter("joint")}, {link.get("name") for link in root.iter("link")}
+    return (
+        {required(j, "name", "joint") for j in root.iter("joint")},
+        {required(link, "name", "link") for link in root.iter("link")},
+    )
 
 
 def actuated_joint_names(urdf: Path) -> list[str]:
     """Names of the non-fixed joints of `urdf`, in file order (the order OpTaS uses)."""
     robot = ET.parse(urdf).getroot()
-    return [joint.get("name") for joint in robot.findall("joint") if joint.get("type") != "fixed"]
+    return [required(joint, "name", "joint") for joint in robot.findall("joint") if joint.get("type") != "fixed"]
 
 
 def parent_links(urdf: Path) -> dict[str, str]:
     """Child link -> parent link."""
+    joints = ET.parse(urdf).getroot().findall("joint")
     return {
-        j.find("child").get("link"): j.find("parent").get("link") for j in ET.parse(urdf).getroot().findall("joint")
+        required(j.find("child"), "link", "joint child"): required(j.find("parent"), "link", "joint parent")
+        for j in joints
     }
 
 
 def fixed_joints_above(urdf: Path, link: str) -> list[str]:
     """The fixed joints between `link` and the nearest movable joint above it, top first (the rigid wrist chain)."""
-    parent_joint = {joint.find("child").get("link"): joint for joint in ET.parse(urdf).getroot().findall("joint")}
-    chain = []
+    joints = ET.parse(urdf).getroot().findall("joint")
+    parent_joint = {required(joint.find("child"), "link", "joint child"): joint for joint in joints}
+    chain: list[str] = []
     while link in parent_joint and parent_joint[link].get("type") == "fixed":
-        chain.insert(0, parent_joint[link].get("name"))
-        link = parent_joint[link].find("parent").get("link")
+        chain.insert(0, required(parent_joint[link], "name", "joint"))
+        link = required(parent_joint[link].find("parent"), "link", "joint parent")
     return chain
 
 

@@ -158,7 +158,9 @@ class Scenario(Strict):
     name: str
     description: str = ""
     seed: int = 0
-    robot: RobotSpec = Field(default_factory=RobotSpec, description="default: the EVA profile")
+    robot: RobotSpec = Field(
+        default_factory=lambda: RobotSpec.model_validate({}), description="default: the EVA profile"
+    )
     reference: Reference | None = None
     task: TaskSpec | None = None
     world: WorldSpec = WorldSpec()

@@ -4,13 +4,23 @@ spring pusher (`stiffness`) whose force depends on how far the pushed point give
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pybullet
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from pybullet_utils.bullet_client import BulletClient
+
+    from harmony_cli.scenario.world import PushSpec
+    from harmony_cli.sim.world import World
 
 EPS = 1e-9  # [s] substep times are multiples of physics_dt: keep t = start + duration outside the window
 
 
-def active(push, t: float) -> bool:
+def active(push: PushSpec, t: float) -> bool:
     """The push acts at time t: start <= t < start + duration."""
     return push.start - EPS <= t < push.start + push.duration - EPS
 
@@ -18,21 +28,32 @@ def active(push, t: float) -> bool:
 class Pushes:
     """The scenario's pushes resolved to PyBullet (body, link index) targets."""
 
-    def __init__(self, client, specs, robot_body: int, robot_base_link: int, world=None, physics_dt: float = 0.004):
+    def __init__(
+        self,
+        client: BulletClient,
+        specs: Sequence[PushSpec],
+        robot_body: int,
+        robot_base_link: int,
+        world: World | None = None,
+        physics_dt: float = 0.004,
+    ):
         self.client, self.specs, self.dt = client, list(specs), physics_dt
         self.applied = [np.zeros(3) for _ in self.specs]  # the force of the last physics substep [N]
-        self.previous = [None] * len(self.specs)  # spring pushers: the point in the substep before the push
-        self.origin = [None] * len(self.specs)  # spring pushers: (point, velocity) when the push began
+        # spring pushers: the point in the substep before the push, and (point, velocity) when the push began
+        self.previous: list[np.ndarray | None] = [None] * len(self.specs)
+        self.origin: list[tuple[np.ndarray, np.ndarray] | None] = [None] * len(self.specs)
         links = {client.getJointInfo(robot_body, i)[12].decode(): i for i in range(client.getNumJoints(robot_body))}
         links[client.getBodyInfo(robot_body)[0].decode()] = -1
-        self.targets = []
+        self.targets: list[tuple[int, int]] = []
         for spec in self.specs:
             if spec.body == "robot":
                 self.targets.append((robot_body, robot_base_link if spec.link is None else links[spec.link]))
-            elif spec.body == "box":
+            elif world is not None and spec.body == "box" and world.box is not None:
                 self.targets.append((world.box, -1))
-            else:
+            elif world is not None and spec.body in world.obstacles:
                 self.targets.append((world.obstacles[spec.body], -1))
+            else:
+                raise ValueError(f"push {spec.name}: no body {spec.body!r} in the world")
 
     def _world_point(self, body: int, link: int, point) -> np.ndarray:
         """The push point in the world: the link's COM, or `point` in the link frame (base: the body frame)."""
@@ -49,18 +70,19 @@ class Pushes:
         rotation = np.reshape(c.getMatrixFromQuaternion(orientation), (3, 3))
         return np.array(position) + rotation @ np.asarray(point)
 
-    def _spring_force(self, i: int, spec, t: float, point: np.ndarray) -> np.ndarray:
+    def _spring_force(self, i: int, spec: PushSpec, stiffness: float, t: float, point: np.ndarray) -> np.ndarray:
         """Spring pusher: stiffness x (tip travel - the point's give along the push since it began, less the
         motion it had then), never negative."""
-        if self.origin[i] is None:
-            before = point if self.previous[i] is None else self.previous[i]
-            self.origin[i] = (point, (point - before) / self.dt)
-        p0, v0 = self.origin[i]
+        origin = self.origin[i]
+        if origin is None:
+            before = self.previous[i]
+            origin = self.origin[i] = (point, (point - (point if before is None else before)) / self.dt)
+        p0, v0 = origin
         magnitude = float(np.linalg.norm(spec.force))
         direction = np.asarray(spec.force) / magnitude
-        travel = magnitude / spec.stiffness * min(1.0, (t - spec.start) / (spec.duration / 4))
+        travel = magnitude / stiffness * min(1.0, (t - spec.start) / (spec.duration / 4))
         give = float(direction @ (point - p0 - v0 * (t - spec.start)))
-        return direction * spec.stiffness * max(0.0, travel - give)
+        return direction * stiffness * max(0.0, travel - give)
 
     def apply(self, t: float) -> None:
         """Call before each stepSimulation with the substep's start time."""
@@ -71,7 +93,11 @@ class Pushes:
                     self.previous[i] = self._world_point(body, link, spec.point)
                 continue
             point = self._world_point(body, link, spec.point)
-            force = np.asarray(spec.force, float) if spec.stiffness is None else self._spring_force(i, spec, t, point)
+            force = (
+                np.asarray(spec.force, float)
+                if spec.stiffness is None
+                else self._spring_force(i, spec, spec.stiffness, t, point)
+            )
             self.client.applyExternalForce(body, link, force.tolist(), point.tolist(), pybullet.WORLD_FRAME)
             self.applied[i] = force
 

@@ -6,6 +6,7 @@ import contextlib
 import os
 import sys
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pybullet
@@ -16,6 +17,12 @@ from harmony_cli.robot.observation import Observation
 from harmony_cli.sim.pushes import Pushes
 from harmony_cli.sim.world import World
 from harmony_cli.sim.wrench import WristSensors
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from harmony_cli.scenario.models import SimSpec
+    from harmony_cli.scenario.world import PushSpec, WorldSpec
 
 
 @dataclass(frozen=True)
@@ -49,7 +56,9 @@ def _silenced_stdout():
 class Simulation:
     """Base through its virtual planar joints (velocity), every other joint by position + velocity targets."""
 
-    def __init__(self, robot: Robot, sim_spec, world=None, pushes=()):
+    def __init__(
+        self, robot: Robot, sim_spec: SimSpec, world: WorldSpec | None = None, pushes: Sequence[PushSpec] = ()
+    ):
         self.robot, self.spec = robot, sim_spec
         with _silenced_stdout():
             self.client = BulletClient(connection_mode=pybullet.DIRECT)
@@ -108,17 +117,20 @@ class Simulation:
     def truth(self) -> Truth:
         """Ground truth for the logs (never for the controllers)."""
         world = self.world
-        box = world is not None and world.box is not None
-        centre, z_axis = world.box_state() if box else (None, None)
-        touching = box and world.touching(world.box, self.body)
-        contact = self.pad_contact_forces() if box else None
-        positions, robot, carried = {}, {}, {}
+        box = None if world is None else world.box
+        centre, z_axis, touching, contact = None, None, False, None
+        if world is not None and box is not None:
+            centre, z_axis = world.box_state()
+            touching, contact = world.touching(box, self.body), self.pad_contact_forces()
+        positions: dict[str, np.ndarray] = {}
+        robot: dict[str, float] = {}
+        carried: dict[str, float] = {}
         if world is not None:
             positions = {name: world.obstacle_position(name) for name in world.moving}
             for name in world.obstacles:
                 robot[name] = world.clearance(self.body, name)
-                if box:
-                    carried[name] = world.clearance(world.box, name)
+                if box is not None:
+                    carried[name] = world.clearance(box, name)
         return Truth(
             box_position=centre,
             box_z_axis=z_axis,

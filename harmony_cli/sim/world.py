@@ -7,11 +7,18 @@ contact would be resolved by penetration recovery alone (the runs require cleara
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pybullet
 
 from harmony_cli.maths.shapes import table_legs
 from harmony_cli.tasks.motion import centre_at
+
+if TYPE_CHECKING:
+    from pybullet_utils.bullet_client import BulletClient
+
+    from harmony_cli.scenario.world import WorldSpec
 
 FAR = 5.0  # [m] clearances beyond this are reported as FAR (PyBullet only searches this far)
 
@@ -24,7 +31,7 @@ class World:
     """Static tables, static or kinematic obstacles, and the box as a free body (held only by friction when
     carried)."""
 
-    def __init__(self, client, spec):
+    def __init__(self, client: BulletClient, spec: WorldSpec):
         self.client, self.spec = client, spec
         self.tables = {t.name: self._table(t) for t in spec.tables}
         self.obstacles = {o.name: self._obstacle(o) for o in spec.obstacles}

@@ -27,7 +27,8 @@ class WristSensors:
         params = client.getPhysicsEngineParameters()
         self.gravity = np.array([params[f"gravityAcceleration{a}"] for a in "XYZ"])
         self.dt = params["fixedTimeStep"]
-        self.previous = None  # tool links' COM velocities before the last physics step
+        # tool links' (COM velocity, angular velocity) before the last physics step
+        self.previous: list[list[tuple[np.ndarray, np.ndarray]]] | None = None
         for joint in self.sensors:
             client.enableJointForceTorqueSensor(body, joint, True)
 

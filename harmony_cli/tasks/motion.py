@@ -6,14 +6,20 @@ known from the scenario), sampled at their own knot / sample times."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from harmony_cli.scenario.world import ObstacleSpec
 
 # absolute times (n,) -> centres (obstacles, n, 3)
 Predictor = Callable[[np.ndarray], np.ndarray]
 
 
-def centre_at(spec, times) -> np.ndarray:
+def centre_at(spec: ObstacleSpec, times: ArrayLike) -> np.ndarray:
     """Centre (n, 3) of obstacle `spec` at `times` (n,) [s]: static without a motion; with `velocity`, moving
     from `position` between `start` and `stop`; with `waypoints`, piecewise linear, held before the first and
     after the last."""
@@ -29,7 +35,7 @@ def centre_at(spec, times) -> np.ndarray:
     return np.stack([np.interp(times, w[:, 0], w[:, 1 + axis]) for axis in range(3)], axis=1)
 
 
-def obstacle_predictor(obstacles) -> Predictor | None:
+def obstacle_predictor(obstacles: list[ObstacleSpec]) -> Predictor | None:
     """Predicted centres of all `obstacles` (scenario order) at absolute times; None when none of them moves."""
     if not any(o.motion is not None for o in obstacles):
         return None

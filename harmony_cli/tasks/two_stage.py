@@ -25,6 +25,8 @@ class TaskReferences:
     """Re-plans every `planner.period` control steps and samples the plan at t + knot times."""
 
     def __init__(self, robot: Robot, scenario: Scenario):
+        if scenario.task is None:
+            raise ValueError(f"{scenario.name}: no task phases to plan for")
         self.scenario = scenario
         self.schedule = Schedule(scenario.task, robot.hand_names, scenario.admittance)
         poses = robot.hand_poses_numeric(robot.home)
@@ -60,33 +62,33 @@ class TaskReferences:
         log = {"phase": active.spec.name, "phase_index": active.index, "holding": holding}
         # what the hands were asked to be at now (the plan restarts from the measurement)
         now = None if self.result is None else self.result.plan.sample(np.array([t]))[0][0]
-        if self.step_count % self.scenario.planner.period == 0 or self.result is None:
-            log |= self._replan(t, obs, active, holding)
+        result = self.result
+        if self.step_count % self.scenario.planner.period == 0 or result is None:
+            result = self.result = self._replan(t, obs, active, holding)
+            log |= {
+                "planner_ms": 1e3 * result.solve_time,
+                "planner_status": result.status,
+                "planner_success": result.success,
+                "planner_iterations": result.iterations,
+                "planner_clearance_m": result.min_clearance,
+            }
         self.step_count += 1
-        positions, rotations = self.result.plan.sample(t + knot_times)
+        positions, rotations = result.plan.sample(t + knot_times)
         force_ref = None
         if self.schedule.admittance.enabled:
             force_ref = np.tile(self.schedule.force(t + knot_times), (len(self.schedule.hand_names), 1))
         return HandTargets(positions, rotations, positions[0] if now is None else now, force_ref, log)
 
-    def _replan(self, t: float, obs: Observation, active: ActivePhase, holding: bool) -> dict:
+    def _replan(self, t: float, obs: Observation, active: ActivePhase, holding: bool) -> PlannerResult:
         heading = heading_of(obs.hand_rotations, self.home_rotations)
         if self.scenario.planner.start_velocity == "plan" and self.result is not None:
             rates = self.result.plan.rates(t)  # measured pose, the plan's own velocity: no restart at rest
             state = HandState(obs.hand_positions, rates[:6].reshape(2, 3), heading, rates[6])
         else:
             state = HandState(obs.hand_positions, obs.hand_velocities, heading, obs.heading_rate)
-        if holding and self.box_drop is None:
-            self.box_drop = obs.hand_positions[:, 2].mean() - (
-                obs.box_position[2] - self.scenario.world.box.size[2] / 2
-            )
-        self.result = self.planner.step(
+        box = self.scenario.world.box
+        if holding and self.box_drop is None and box is not None and obs.box_position is not None:
+            self.box_drop = obs.hand_positions[:, 2].mean() - (obs.box_position[2] - box.size[2] / 2)
+        return self.planner.step(
             t, state, self.goal, active.end, active.index, self.box_radius if holding else None, self.box_drop or 0.0
         )
-        return {
-            "planner_ms": 1e3 * self.result.solve_time,
-            "planner_status": self.result.status,
-            "planner_success": self.result.success,
-            "planner_iterations": self.result.iterations,
-            "planner_clearance_m": self.result.min_clearance,
-        }
