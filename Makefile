@@ -18,13 +18,18 @@ $(STAMP): pyproject.toml constraints.txt
 
 install: $(STAMP)
 
-# ruff (lint + format), mypy, import contracts (import-linter), module and function sizes
+# ruff (lint + format), mypy, import contracts (import-linter), module/function/README sizes, docs tables in sync
 lint: $(STAMP)
 	$(VENV)/bin/ruff check harmony_cli tests tools
 	$(VENV)/bin/ruff format --check harmony_cli tests tools
 	$(VENV)/bin/mypy
-	$(VENV)/bin/lint-imports
+	$(VENV)/bin/lint-imports --no-cache
 	$(VENV)/bin/python tools/check_sizes.py harmony_cli
+	$(VENV)/bin/python tools/render_docs.py --check
+
+# the tables in docs/*.md from the committed result files
+docs: $(STAMP)
+	$(VENV)/bin/python tools/render_docs.py
 
 test: $(STAMP)
 	$(VENV)/bin/pytest -q
@@ -59,6 +64,7 @@ reproduce-paper: $(STAMP)
 	cp results/paper/push_recovery/push_recovery.md results/paper/push_recovery/push_recovery.csv results/paper/
 	for a in true false; do cp results/paper/push_recovery/runs/enabled-$$a/push_left_hand.png \
 		results/paper/push_recovery_admittance_$$a.png; done
+	$(VENV)/bin/python tools/render_docs.py
 
 clean:
 	rm -rf results/runs results/compare results/bench results/paper/runs results/paper/push_recovery .pytest_cache .hypothesis
