@@ -274,3 +274,16 @@ def test_a_state_inside_a_margin_may_stay_but_not_go_deeper(eva):
     assert result.success and not command.held and lower.min() < -0.02
     assert (h >= lower - 1e-8).all()
     np.testing.assert_allclose(constraints.lower(result.x, mpc.params), lower, atol=1e-12)  # the solvers' bounds
+
+
+def test_a_solution_s_constraint_violation_is_the_same_from_compiled_rows_and_from_casadi(eva):
+    scenario, mpc, ref = _walled(eva, "solver.name=gauss_newton", "solver.tol=1.0e-10", "solver.max_iter=300")
+    _, gn = mpc.step(eva.home.copy(), ref)
+    assert gn.max_violation < 1e-8  # converged: feasible
+    problem, margins = mpc.problem, KnotConstraints(mpc.problem).margins
+    x = gn.x.copy()
+    x[1 + eva.n_dof :: eva.n_dof] += 0.4  # every free base y control point 0.4 m further into the wall
+    compiled = problem.max_violation(x, gn.p, gn.lbx, gn.ubx, margins)
+    assert compiled == pytest.approx(problem.max_violation(x, gn.p, gn.lbx, gn.ubx), rel=1e-12)  # CasADi's VM
+    depth = -_footprint_margins(mpc, scenario, x).min()  # numpy geometry: the deepest circle inside the margin
+    assert depth > 0.05 and compiled >= depth - 1e-9

@@ -98,4 +98,5 @@ class GaussNewtonSolver:
             p.copy(),
             lbx.copy(),
             ubx.copy(),
+            None if self.constraints is None else self.constraints.margins,
         )

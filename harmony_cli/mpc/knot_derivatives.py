@@ -156,6 +156,12 @@ class KnotConstraints:
         h0 = np.array(self.function(q0, p[: self.n_ref])).ravel()
         return np.tile(np.minimum(h0, 0.0), K - 1)
 
+    def margins(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(h at knots >= 1, lower bounds), without the Jacobian's assembly."""
+        (K, npos), nd = self.B.shape, self.n_dof
+        h = self.map(i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p)["o0"].reshape(K, self.m)
+        return h[1:].ravel().copy(), np.tile(np.minimum(h[0], 0.0), K - 1)
+
     def evaluate(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(h at knots >= 1, lower bounds, C: n_rows x n_vars dense)."""
         (K, npos), nd = self.B.shape, self.n_dof

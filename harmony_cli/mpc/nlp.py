@@ -157,6 +157,7 @@ class NlpSolver:
             p.copy(),
             lbx.copy(),
             ubx.copy(),
+            None if self.constraints is None else self.constraints.margins,
         )
 
 
@@ -206,4 +207,5 @@ class SymbolicNlpSolver:
             p.copy(),
             lbx.copy(),
             ubx.copy(),
+            None if self.constraints is None else self.constraints.margins,
         )

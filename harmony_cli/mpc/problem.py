@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Protocol
 
 import casadi as cs
 import numpy as np
+
+# (x, p) -> (constraint rows at knots >= 1, their lower bounds)
+Margins = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
 @dataclass
@@ -51,11 +55,17 @@ class Problem:
         n_dof = self.task_residual.size1_in(0)
         return x[: n_dof * n_pos].reshape((n_dof, n_pos), order="F") @ self.position_basis.T
 
-    def max_violation(self, x: np.ndarray, p: np.ndarray, lbx: np.ndarray, ubx: np.ndarray) -> float:
-        """The largest violation of any bound, linear row or constraint row by x [their units]."""
+    def max_violation(
+        self, x: np.ndarray, p: np.ndarray, lbx: np.ndarray, ubx: np.ndarray, margins: Margins | None = None
+    ) -> float:
+        """The largest violation of any bound, linear row or constraint row by x [their units]; `margins` gives
+        the constraint rows and their lower bounds from compiled code (else CasADi's VM evaluates them)."""
         Ax = self.A @ x
         parts = [lbx - x, x - ubx, self.lb - Ax, Ax - self.ub]
-        if self.constraint_at_knots is not None:
+        if margins is not None:
+            h, lower = margins(x, p)
+            parts.append(lower - h)
+        elif self.constraint_at_knots is not None:
             h = np.array(self.constraint_at_knots(self.knot_positions(x), p.reshape(self.ref_shape, order="F")))
             parts.append(np.minimum(h[:, :1], 0.0) - h[:, 1:])
         return float(max(0.0, *(np.max(v, initial=0.0) for v in parts)))
@@ -76,6 +86,7 @@ class SolveResult:
     p: np.ndarray | None = field(default=None, repr=False, compare=False)
     lbx: np.ndarray | None = field(default=None, repr=False, compare=False)
     ubx: np.ndarray | None = field(default=None, repr=False, compare=False)
+    margins: Margins | None = field(default=None, repr=False, compare=False)  # the solver's compiled rows
 
     @cached_property
     def cost_terms(self) -> dict[str, float]:
@@ -89,7 +100,7 @@ class SolveResult:
         """The largest violation of the bounds, linear rows and constraint rows at x (0: feasible)."""
         if self.problem is None or self.p is None or self.lbx is None or self.ubx is None:
             return float("nan")
-        return self.problem.max_violation(self.x, self.p, self.lbx, self.ubx)
+        return self.problem.max_violation(self.x, self.p, self.lbx, self.ubx, self.margins)
 
 
 class Solver(Protocol):

@@ -18,7 +18,7 @@ class Weights(Strict):
     position: float = Field(1.0, ge=0, description="hand position tracking, mean over knots [1/m^2]")
     orientation: float = Field(1.0, ge=0, description="hand rotation-matrix error ||R - R_ref||_F^2, mean over knots")
     chest_yaw: float = Field(10.0, ge=0)
-    arm_symmetry: float = Field(0.1, ge=0, description="(LARM_JOINT0 + RARM_JOINT0)^2")
+    arm_symmetry: float = Field(0.1, ge=0, description="(a + b)^2 over robot.mirrored_joints pairs")
     posture: float = Field(0.001, ge=0, description="arm joints away from home")
     velocity: float = Field(0.01, ge=0, description="joint velocity at the knots")
     clearance: float = Field(1.0e4, ge=0, description="squared clearance violation (mpc.clearance: soft only)")
