@@ -12,7 +12,7 @@ import scipy.sparse as sp
 
 from harmony_cli.mpc.codegen import Buffered
 from harmony_cli.mpc.knot_derivatives import KnotConstraints, KnotDerivatives
-from harmony_cli.mpc.problem import Problem, SolveResult
+from harmony_cli.mpc.problem import Problem, SolveContext, SolveResult
 from harmony_cli.mpc.reduction import Reduction
 
 
@@ -26,6 +26,7 @@ class GaussNewtonSolver:
         self.constraints = KnotConstraints(problem) if problem.constraint is not None else None
         rows = "" if self.constraints is None else f", clearance rows linearised ({self.constraints.code_path})"
         self.path = f"{name}: {qp} QP, derivatives from {self.model.code_path} per-knot maps{rows}"
+        self.context = SolveContext(problem, self.path, None if self.constraints is None else self.constraints.margins)
         self.qp_name = qp
         self.options: dict[str, Any] = {"error_on_fail": False}
         if qp == "qpoases":
@@ -93,10 +94,8 @@ class GaussNewtonSolver:
             it,
             time.perf_counter() - start,
             build_time,
-            self.path,
-            self.problem,
+            self.context,
             p.copy(),
             lbx.copy(),
             ubx.copy(),
-            None if self.constraints is None else self.constraints.margins,
         )

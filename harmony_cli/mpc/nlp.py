@@ -19,7 +19,7 @@ from harmony_cli.mpc.codegen import Buffered
 from harmony_cli.mpc.knot_derivatives import KnotConstraints, KnotDerivatives
 from harmony_cli.mpc.native_oracle import native_oracle
 from harmony_cli.mpc.oracles import ConstraintOracle, Oracle
-from harmony_cli.mpc.problem import Problem, SolveResult
+from harmony_cli.mpc.problem import Problem, SolveContext, SolveResult
 from harmony_cli.mpc.reduction import Reduction
 from harmony_cli.mpc.registry import SolverUnavailable, available_nlp_plugins, unavailable_message
 
@@ -78,6 +78,7 @@ class NlpSolver:
             else f", clearance rows through Python callbacks ({self.constraints.code_path} per-knot maps)"
         )
         self.path = f"{plugin}: cost through the {cost}{rows}"
+        self.context = SolveContext(problem, self.path, None if self.constraints is None else self.constraints.margins)
         self.lam_x, self.lam_g = np.zeros(problem.n_vars), np.zeros(problem.A.shape[0] + self.n_rows)
         self._solvers: dict[bytes, tuple] = {}
         self._solver(np.ones(problem.n_vars, dtype=bool))  # checks the options now, not at the first solve
@@ -152,12 +153,10 @@ class NlpSolver:
             int(stats.get("iter_count", -1)),
             time.perf_counter() - start,
             build_time,
-            self.path,
-            self.problem,
+            self.context,
             p.copy(),
             lbx.copy(),
             ubx.copy(),
-            None if self.constraints is None else self.constraints.margins,
         )
 
 
@@ -182,6 +181,8 @@ class SymbolicNlpSolver:
             ) from None
         self.problem = problem
         self.path = f"{plugin}: CasADi AD on the whole symbolic problem" + (f" ({reason})" if reason else "")
+        margins = None if self.constraints is None else self.constraints.margins
+        self.context = SolveContext(problem, self.path, margins)
         self.lam_x, self.lam_g = np.zeros(problem.n_vars), np.zeros(g.numel())
 
     def solve(self, x0, lbx, ubx, p) -> SolveResult:
@@ -202,10 +203,8 @@ class SymbolicNlpSolver:
             int(stats.get("iter_count", -1)),
             elapsed,
             0.0,
-            self.path,
-            self.problem,
+            self.context,
             p.copy(),
             lbx.copy(),
             ubx.copy(),
-            None if self.constraints is None else self.constraints.margins,
         )

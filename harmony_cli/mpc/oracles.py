@@ -10,22 +10,14 @@ import numpy as np
 from harmony_cli.mpc.knot_derivatives import KnotConstraints, KnotDerivatives
 
 
-class Oracle(cs.Callback):
-    """(x, p) -> f, (f, gradient) or Hessian (full symmetric pattern) from a KnotDerivatives."""
+class _Buffered(cs.Callback):
+    """A callback on dense inputs of `sizes` with outputs of sparsities `out`, evaluated on CasADi's buffers."""
 
-    def __init__(self, model: KnotDerivatives, kind: str, n_p: int):
-        cs.Callback.__init__(self)
-        self.grad: Oracle | None = None  # the gradient callback, whose reverse mode f has (set by the user)
-        self.model, self.kind, self.sizes, n = model, kind, (model.n_vars, n_p), model.n_vars
-        self.out = {
-            "f": [cs.Sparsity.dense(1)],
-            "grad": [cs.Sparsity.dense(1), cs.Sparsity.dense(n)],
-            "hess": [cs.Sparsity.triplet(n, n, model.rows.tolist(), model.cols.tolist())],
-        }[kind]
-        self.construct(f"structured_{kind}", {})
+    sizes: tuple[int, ...]
+    out: list
 
     def get_n_in(self):
-        return 2
+        return len(self.sizes)
 
     def get_n_out(self):
         return len(self.out)
@@ -39,6 +31,33 @@ class Oracle(cs.Callback):
     def has_eval_buffer(self):
         return True
 
+    def inputs(self, arg) -> list[np.ndarray]:
+        """The inputs as arrays (CasADi passes None for a zero input)."""
+        return [np.zeros(n) if a is None else np.frombuffer(a, dtype=float) for n, a in zip(self.sizes, arg)]
+
+    @staticmethod
+    def write(res, values) -> int:
+        """Each wanted output (CasADi passes None for the others) from `values`."""
+        for buffer, value in zip(res, values):
+            if buffer is not None:
+                np.frombuffer(buffer, dtype=float)[:] = value
+        return 0
+
+
+class Oracle(_Buffered):
+    """(x, p) -> f, (f, gradient) or Hessian (full symmetric pattern) from a KnotDerivatives."""
+
+    def __init__(self, model: KnotDerivatives, kind: str, n_p: int):
+        cs.Callback.__init__(self)
+        self.grad: Oracle | None = None  # the gradient callback, whose reverse mode f has (set by the user)
+        self.model, self.kind, self.sizes, n = model, kind, (model.n_vars, n_p), model.n_vars
+        self.out = {
+            "f": [cs.Sparsity.dense(1)],
+            "grad": [cs.Sparsity.dense(1), cs.Sparsity.dense(n)],
+            "hess": [cs.Sparsity.triplet(n, n, model.rows.tolist(), model.cols.tolist())],
+        }[kind]
+        self.construct(f"structured_{kind}", {})
+
     def has_reverse(self, n_adj):
         return self.kind == "f" and n_adj == 1
 
@@ -48,20 +67,17 @@ class Oracle(cs.Callback):
             raise RuntimeError("Oracle('f') needs its gradient oracle in .grad for reverse mode")
         return cs.Function(name, [x, p, f, adj], [adj * self.grad(x, p)[1], cs.MX(self.sizes[1], 1)], inames, onames)
 
-    def eval_buffer(self, arg, res):  # CasADi passes None for zero inputs and for outputs it does not want
-        x, p = (np.zeros(n) if a is None else np.frombuffer(a, dtype=float) for n, a in zip(self.sizes, arg))
+    def eval_buffer(self, arg, res):
+        x, p = self.inputs(arg)
         values = {
             "f": lambda: [self.model.value(x, p)],
             "grad": lambda: self.model.gradient(x, p),
             "hess": lambda: [self.model.hessian(x, p)],
         }[self.kind]()
-        for buffer, value in zip(res, values):
-            if buffer is not None:
-                np.frombuffer(buffer, dtype=float)[:] = value
-        return 0
+        return self.write(res, values)
 
 
-class ConstraintOracle(cs.Callback):
+class ConstraintOracle(_Buffered):
     """(x, p) -> (h, dh/dx) ("jac"), or (x, p, lam) -> Hessian of lam . h on the cost Hessian's pattern ("hess"),
     from KnotConstraints (Python: these rows exist only with obstacles; the cost keeps its native oracle)."""
 
@@ -81,21 +97,6 @@ class ConstraintOracle(cs.Callback):
         }[kind]
         self.construct(f"constraint_{kind}", {})
 
-    def get_n_in(self):
-        return len(self.sizes)
-
-    def get_n_out(self):
-        return len(self.out)
-
-    def get_sparsity_in(self, i):
-        return cs.Sparsity.dense(self.sizes[i])
-
-    def get_sparsity_out(self, i):
-        return self.out[i]
-
-    def has_eval_buffer(self):
-        return True
-
     def has_reverse(self, n_adj):
         return self.kind == "jac" and n_adj == 1
 
@@ -112,13 +113,8 @@ class ConstraintOracle(cs.Callback):
         )
 
     def eval_buffer(self, arg, res):
-        x, p, *lam = (np.zeros(n) if a is None else np.frombuffer(a, dtype=float) for n, a in zip(self.sizes, arg))
+        x, p, *lam = self.inputs(arg)
         if self.kind == "jac":
             h, _, C = self.constraints.evaluate(x, p)
-            values = [h, C[self.jac_index]]
-        else:
-            values = [self.model.assemble(self.constraints.curvature(x, p, lam[0]))]
-        for buffer, value in zip(res, values):
-            if buffer is not None:
-                np.frombuffer(buffer, dtype=float)[:] = value
-        return 0
+            return self.write(res, [h, C[self.jac_index]])
+        return self.write(res, [self.model.assemble(self.constraints.curvature(x, p, lam[0]))])

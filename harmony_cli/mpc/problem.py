@@ -72,6 +72,15 @@ class Problem:
 
 
 @dataclass(frozen=True)
+class SolveContext:
+    """What every result of one solver shares: its problem, the code path it takes and its compiled rows."""
+
+    problem: Problem
+    path: str  # e.g. "ipopt: cost through the native C oracle ..., clearance rows through Python callbacks"
+    margins: Margins | None = None  # the solver's compiled constraint rows, for the violation
+
+
+@dataclass(frozen=True)
 class SolveResult:
     """One solve. `cost_terms` and `max_violation` are evaluated on first use, outside the timed solve."""
 
@@ -81,26 +90,28 @@ class SolveResult:
     iterations: int
     solve_time: float  # wall seconds of the solve, excluding build_time
     build_time: float = 0.0  # wall seconds spent in this call building solver structures (first use of a pattern)
-    path: str = ""  # the code path that solved (see Solver.path)
-    problem: Problem | None = field(default=None, repr=False, compare=False)
-    p: np.ndarray | None = field(default=None, repr=False, compare=False)
-    lbx: np.ndarray | None = field(default=None, repr=False, compare=False)
+    context: SolveContext | None = field(default=None, repr=False, compare=False)
+    p: np.ndarray | None = field(default=None, repr=False, compare=False)  # the parameters and bounds it solved
+    lbx: np.ndarray | None = field(default=None, repr=False, compare=False)  # with (copies)
     ubx: np.ndarray | None = field(default=None, repr=False, compare=False)
-    margins: Margins | None = field(default=None, repr=False, compare=False)  # the solver's compiled rows
+
+    @property
+    def path(self) -> str:
+        return "" if self.context is None else self.context.path
 
     @cached_property
     def cost_terms(self) -> dict[str, float]:
         """Every named cost term at x."""
-        if self.problem is None or self.p is None:
+        if self.context is None or self.p is None:
             return {}
-        return self.problem.evaluate_terms(self.x, self.p)
+        return self.context.problem.evaluate_terms(self.x, self.p)
 
     @cached_property
     def max_violation(self) -> float:
         """The largest violation of the bounds, linear rows and constraint rows at x (0: feasible)."""
-        if self.problem is None or self.p is None or self.lbx is None or self.ubx is None:
+        if self.context is None or self.p is None or self.lbx is None or self.ubx is None:
             return float("nan")
-        return self.problem.max_violation(self.x, self.p, self.lbx, self.ubx, self.margins)
+        return self.context.problem.max_violation(self.x, self.p, self.lbx, self.ubx, self.context.margins)
 
 
 class Solver(Protocol):
