@@ -6,9 +6,10 @@ import json
 from pathlib import Path
 
 import typer
+from pydantic import ValidationError
 from rich.console import Console
 
-from harmony_cli.scenario import Scenario, ScenarioError, load_scenario
+from harmony_cli.scenario import Scenario, ScenarioError, load_scenario, robot_warnings
 
 app = typer.Typer(
     add_completion=False,
@@ -23,6 +24,11 @@ SET_HELP = "Override a scenario field, e.g. --set mpc.knots=6 (repeatable)."
 def _fail(message: str) -> None:
     err.print(f"[red]error:[/red] {message}", highlight=False, soft_wrap=True)
     raise typer.Exit(2)
+
+
+def _warn(lines: list[str]) -> None:
+    for line in lines:
+        err.print(f"[yellow]warning:[/yellow] {line}", highlight=False, soft_wrap=True)
 
 
 @app.command()
@@ -49,6 +55,7 @@ def run(
     try:
         if video_path is not None and video_path.suffix.lower() not in (".mp4", ".gif"):
             _fail(f"--video-file: {str(video_path)!r} must end in .mp4 or .gif")
+        _warn(robot_warnings(load_scenario(scenario, set), scenario.parent))
         target = video_path or (True if video else None)
         run_dir = run_scenario(scenario, set, out, progress=not quiet, video=target, push_free_twin=twin)
     except (ScenarioError, SolverUnavailable) as exc:
@@ -93,13 +100,54 @@ def validate(files: list[Path]):
     bad = 0
     for f in files:
         try:
-            load_scenario(f)
+            loaded = load_scenario(f)
             typer.echo(f"{f}: ok")
+            _warn(robot_warnings(loaded, f.parent))
         except ScenarioError as exc:
             err.print(f"[red]error:[/red] {exc}", highlight=False, soft_wrap=True)
             bad += 1
     if bad:
         raise typer.Exit(2)
+
+
+robots_app = typer.Typer(
+    no_args_is_help=False, invoke_without_command=True, help="Robot presets: list them, or show one (`show NAME`)."
+)
+app.add_typer(robots_app, name="robots")
+
+
+@robots_app.callback()
+def robots(context: typer.Context):
+    """List the robot presets (`robot: {preset: NAME}`) and where their URDF comes from."""
+    if context.invoked_subcommand is not None:
+        return
+    from harmony_cli.robot.presets import PRESETS_DIR, available_presets
+
+    for name in available_presets():
+        first = (PRESETS_DIR / f"{name}.yaml").read_text().splitlines()[0].lstrip("# ")
+        typer.echo(f"{name:<12} {first}")
+
+
+@robots_app.command("show")
+def robots_show(name: str):
+    """Joints, limits, hand frames, wrist sensors, what preparing the URDF changed and the gravity check."""
+    from harmony_cli.names import closest
+    from harmony_cli.report.robot_text import robot_lines
+    from harmony_cli.robot.model import load_robot
+    from harmony_cli.robot.presets import available_presets
+    from harmony_cli.scenario import RobotSpec
+
+    if name not in available_presets():
+        _fail(f"robots show: {name!r} is not a robot preset; {closest(name, available_presets())}")
+    try:
+        spec = RobotSpec.model_validate({"preset": name})
+        robot = load_robot(spec, Path.cwd())
+    except ValidationError as exc:
+        _fail(f"robots show {name}: {exc.errors()[0]['msg']}")
+    except ValueError as exc:
+        _fail(f"robots show {name}: {exc}")
+    for line in robot_lines(name, robot):
+        typer.echo(line)
 
 
 @app.command()

@@ -95,7 +95,7 @@ OBSTACLE = "world: {obstacles: [{name: o, shape: cylinder, size: [0.4, 0.4, 2], 
 )
 def test_bad_motion_gets_one_line_naming_file_field_value_and_what_is_valid(tmp_path, fields, expected):
     path = tmp_path / "bad.yaml"
-    path.write_text("name: x\nrobot: {profile: eva}\nreference: {type: hold}\n" + OBSTACLE % fields)
+    path.write_text("name: x\nrobot: {preset: eva}\nreference: {type: hold}\n" + OBSTACLE % fields)
     assert_rejected(path, expected)
 
 

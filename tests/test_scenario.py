@@ -31,7 +31,7 @@ def test_overrides_set_nested_values_parsed_as_yaml():
 
 def _write(tmp_path: Path, text: str) -> Path:
     path = tmp_path / "bad.yaml"
-    path.write_text(text.replace("urdf: URDF", f"profile: eva, urdf: {ROOT / 'harmony_cli/robot/profiles/eva.urdf'}"))
+    path.write_text(text.replace("urdf: URDF", f"preset: eva, urdf: {ROOT / 'harmony_cli/robot/presets/eva.urdf'}"))
     return path
 
 
@@ -57,7 +57,7 @@ BASE = "name: x\nrobot: {urdf: URDF}\nreference: {type: hold}\n"
             ["robot.base_joints", "'base_z'", "base_x"],
         ),
         (
-            "name: x\nrobot: {profile: eva, urdf: nowhere.urdf}\nreference: {type: hold}\n",
+            "name: x\nrobot: {preset: eva, urdf: nowhere.urdf}\nreference: {type: hold}\n",
             ["robot.urdf", "nowhere.urdf"],
         ),
         ("name: [unclosed\n", ["not valid YAML"]),

@@ -11,12 +11,12 @@ import pybullet
 import pytest
 from pybullet_utils.bullet_client import BulletClient
 
-from harmony_cli.robot.prepare import prepare_urdf
+from harmony_cli.robot.prepare import UrdfPlan, prepare_urdf
 from harmony_cli.robot.urdf import actuated_joint_names
 
 ROOT = Path(__file__).resolve().parents[1]
-TWIN_ARM = ROOT / "scenarios/robots/twin_arm.urdf"
-EVA = ROOT / "harmony_cli/robot/profiles/eva.urdf"
+TWIN_ARM = ROOT / "harmony_cli/robot/presets/twin_arm.urdf"
+EVA = ROOT / "harmony_cli/robot/presets/eva.urdf"
 BASE = ("base_x", "base_y", "base_yaw")
 ARM_JOINTS = [
     f"{side}_{name}"
@@ -58,6 +58,10 @@ endsolid tetrahedron
 """
 
 
+def _prepare(urdf: Path, package_paths: list[Path], cache: Path) -> Path:
+    return prepare_urdf(urdf, UrdfPlan(BASE, tuple(package_paths)), cache).path
+
+
 @pytest.fixture
 def bullet():
     client = BulletClient(pybullet.DIRECT)
@@ -90,7 +94,7 @@ def _twin_arm_with_mesh(tmp_path: Path) -> Path:
 
 
 def test_twin_arm_gets_the_virtual_base_first(tmp_path):
-    out = prepare_urdf(TWIN_ARM, BASE, [], tmp_path)
+    out = _prepare(TWIN_ARM, [], tmp_path)
     assert out.parent == tmp_path and out != TWIN_ARM
     assert actuated_joint_names(TWIN_ARM) == ARM_JOINTS
     assert actuated_joint_names(out) == [*BASE, *ARM_JOINTS]
@@ -99,7 +103,7 @@ def test_twin_arm_gets_the_virtual_base_first(tmp_path):
 
 
 def test_optas_and_pybullet_agree_on_the_grasp_frames(tmp_path, bullet, rng):
-    out = prepare_urdf(TWIN_ARM, BASE, [], tmp_path)
+    out = _prepare(TWIN_ARM, [], tmp_path)
     model = optas.RobotModel(urdf_filename=str(out), time_derivs=[0])
     body = bullet.loadURDF(str(out), useFixedBase=True)
     joints = [_joint_indices(bullet, body)[name] for name in model.actuated_joint_names]
@@ -115,7 +119,7 @@ def test_optas_and_pybullet_agree_on_the_grasp_frames(tmp_path, bullet, rng):
 
 
 def test_home_grasp_frames_face_each_other_and_ride_on_base_x(tmp_path):
-    model = optas.RobotModel(urdf_filename=str(prepare_urdf(TWIN_ARM, BASE, [], tmp_path)), time_derivs=[0])
+    model = optas.RobotModel(urdf_filename=str(_prepare(TWIN_ARM, [], tmp_path)), time_derivs=[0])
     home = np.zeros(model.ndof)
     left, right = (_optas_position(model, grasp, home) for grasp in GRASPS)
     assert 0.6 <= left[0] <= 0.7 and 0.9 <= left[2] <= 1.0 and left[1] == pytest.approx(0.15, abs=0.02)
@@ -133,7 +137,7 @@ def test_home_grasp_frames_face_each_other_and_ride_on_base_x(tmp_path):
 
 
 def test_arms_move_the_hands_in_every_direction_at_home(tmp_path):
-    model = optas.RobotModel(urdf_filename=str(prepare_urdf(TWIN_ARM, BASE, [], tmp_path)), time_derivs=[0])
+    model = optas.RobotModel(urdf_filename=str(_prepare(TWIN_ARM, [], tmp_path)), time_derivs=[0])
     home = np.zeros(model.ndof)
     for side in "lr":
         jacobian = np.array(casadi.DM(model.get_global_link_geometric_jacobian(f"{side}_grasp", home)))
@@ -142,7 +146,7 @@ def test_arms_move_the_hands_in_every_direction_at_home(tmp_path):
 
 
 def test_a_urdf_that_already_has_the_base_comes_back_unchanged(tmp_path):
-    assert prepare_urdf(EVA, BASE, [], tmp_path) == EVA
+    assert _prepare(EVA, [], tmp_path) == EVA
     assert list(tmp_path.iterdir()) == []
 
 
@@ -159,7 +163,7 @@ def test_a_partial_virtual_base_is_rejected_naming_the_missing_joints(tmp_path):
 </robot>
 """)
     with pytest.raises(ValueError, match="base_y") as error:
-        prepare_urdf(partial, BASE, [], tmp_path / "cache")
+        _prepare(partial, [], tmp_path / "cache")
     assert "base_yaw" in str(error.value) and "partial.urdf" in str(error.value)
 
 
@@ -168,7 +172,7 @@ def test_package_meshes_resolve_against_the_search_paths(tmp_path, bullet):
     stl.parent.mkdir(parents=True)
     stl.write_text(TETRAHEDRON_STL)
     source = _twin_arm_with_mesh(tmp_path)
-    out = prepare_urdf(source, BASE, [tmp_path / "elsewhere", tmp_path / "search"], tmp_path / "cache")
+    out = _prepare(source, [tmp_path / "elsewhere", tmp_path / "search"], tmp_path / "cache")
     text = out.read_text()
     assert HAND_MESH_URI not in text and f'filename="{stl.resolve()}"' in text
     body = bullet.loadURDF(str(out), useFixedBase=True)
@@ -179,13 +183,13 @@ def test_a_package_search_path_may_point_inside_the_package(tmp_path):
     stl = tmp_path / "twin_arm_meshes/meshes/hand.stl"
     stl.parent.mkdir(parents=True)
     stl.write_text(TETRAHEDRON_STL)
-    out = prepare_urdf(_twin_arm_with_mesh(tmp_path), BASE, [tmp_path / "twin_arm_meshes"], tmp_path / "cache")
+    out = _prepare(_twin_arm_with_mesh(tmp_path), [tmp_path / "twin_arm_meshes"], tmp_path / "cache")
     assert f'filename="{stl.resolve()}"' in out.read_text()
 
 
 def test_an_unresolvable_package_mesh_names_the_uri(tmp_path):
     with pytest.raises(FileNotFoundError, match=HAND_MESH_URI):
-        prepare_urdf(_twin_arm_with_mesh(tmp_path), BASE, [], tmp_path / "cache")
+        _prepare(_twin_arm_with_mesh(tmp_path), [], tmp_path / "cache")
 
 
 def test_relative_mesh_filenames_become_absolute(tmp_path):
@@ -193,12 +197,12 @@ def test_relative_mesh_filenames_become_absolute(tmp_path):
     (tmp_path / "meshes/hand.stl").write_text(TETRAHEDRON_STL)
     source = _twin_arm_with_mesh(tmp_path)
     source.write_text(source.read_text().replace(HAND_MESH_URI, "meshes/hand.stl"))
-    out = prepare_urdf(source, BASE, [], tmp_path / "cache")
+    out = _prepare(source, [], tmp_path / "cache")
     assert f'filename="{(tmp_path / "meshes/hand.stl").resolve()}"' in out.read_text()
 
 
 def test_the_cache_is_keyed_by_content(tmp_path):
-    first = prepare_urdf(TWIN_ARM, BASE, [], tmp_path)
-    second = prepare_urdf(TWIN_ARM, BASE, [], tmp_path)
+    first = _prepare(TWIN_ARM, [], tmp_path)
+    second = _prepare(TWIN_ARM, [], tmp_path)
     assert first == second and first.name.startswith("twin_arm_") and len(first.stem) == len("twin_arm_") + 16
     assert [path.name for path in tmp_path.iterdir()] == [first.name]  # no temp files left behind

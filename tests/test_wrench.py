@@ -156,7 +156,7 @@ def test_a_squeeze_reads_the_sum_of_the_pad_contact_normal_forces(sim, eva):
 def test_the_reaction_convention_holds_for_a_tool_with_a_rotated_inertial_frame(tmp_path):
     """PyBullet gives the reaction in the child's COM frame, about its COM: a tool whose inertial frame is
     rotated and offset from its link frame still reads zero without load, in a tilted posture."""
-    urdf = (ROOT / "harmony_cli/robot/profiles/eva.urdf").read_text()
+    urdf = (ROOT / "harmony_cli/robot/presets/eva.urdf").read_text()
     tool = '<origin xyz="-0.04 0 -0.03" rpy="0 0 0"/>\n      <mass value="0.3113"/>'
     assert urdf.count(tool) == 2
     rotated = tmp_path / "eva_rotated_tool.urdf"
@@ -201,7 +201,7 @@ def test_sensing_does_not_change_the_dynamics(eva):
 
 def _write(tmp_path, robot):
     path = tmp_path / "bad.yaml"
-    path.write_text(f"name: x\nrobot: {{profile: eva, {robot}}}\nreference: {{type: hold}}\n")
+    path.write_text(f"name: x\nrobot: {{preset: eva, {robot}}}\nreference: {{type: hold}}\n")
     return path
 
 

@@ -21,9 +21,9 @@ from harmony_cli.mpc.wholebody import WholeBodyMPC
 from harmony_cli.report.metrics import displacement_from_twin
 from harmony_cli.report.plots import plot_run_dir
 from harmony_cli.report.summary import summarise_run
-from harmony_cli.robot.model import Robot, load_robot
+from harmony_cli.robot.model import Robot
 from harmony_cli.robot.urdf import hand_below
-from harmony_cli.scenario import Scenario
+from harmony_cli.scenario import Scenario, robot_of, robot_warnings
 from harmony_cli.sim.simulation import Simulation
 from harmony_cli.sim.video import VideoRecorder, frame_every
 from harmony_cli.tasks.motion import Predictor, obstacle_predictor
@@ -55,7 +55,7 @@ class Built:
 
 
 def build(scenario: Scenario, scenario_dir: Path) -> Built:
-    robot = load_robot(scenario.robot, scenario_dir)
+    robot = robot_of(scenario, scenario_dir)
     mpc = WholeBodyMPC(robot, scenario, scenario.sim.control_dt)
     sim = Simulation(robot, scenario.sim, scenario.world, scenario.pushes)
     if scenario.task is not None:
@@ -162,7 +162,7 @@ def write_results(
         steps = displacement_from_twin(steps, twin, hands)
     steps.to_csv(out / "steps.csv", index=False)
     if len(steps):
-        urdf = (scenario_dir / scenario.robot.urdf).resolve()
+        urdf = robot_of(scenario, scenario_dir).urdf
         pushed = {
             p.name: hand_below(p.link, urdf, scenario.robot.end_effectors)
             if p.body == "robot" and p.link is not None
@@ -195,6 +195,8 @@ def execute(
         built = build(scenario, scenario_dir)
         summary |= describe(scenario, built)
         meta["solver_paths"] = solver_paths(built)
+        notes = robot_warnings(scenario, scenario_dir) + list(built.robot.notes) + built.sim.notes
+        log.write("".join(f"{line}\n" for line in notes))
         log.write(
             f"built whole-body MPC: {built.mpc.problem.n_vars} decision variables in "
             f"{built.mpc.build_time:.2f} s\n" + "".join(f"{k}: {v}\n" for k, v in meta["solver_paths"].items())

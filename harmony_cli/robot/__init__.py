@@ -1,2 +1,2 @@
-"""Robots: URDF reading and preparation, the kinematic model every MPC uses, and robot profiles (data files of a
+"""Robots: URDF reading and preparation, the kinematic model every MPC uses, and robot presets (data files of a
 robot's defaults: URDF, hands, joint roles, home pose, base footprint)."""

@@ -11,8 +11,11 @@ import numpy as np
 import optas
 
 from harmony_cli.cache import CACHE_DIR
-from harmony_cli.robot.prepare import prepare_urdf
-from harmony_cli.robot.urdf import wrist_sensor_joints
+from harmony_cli.capture import captured_output
+from harmony_cli.names import closest
+from harmony_cli.robot.gravity import overloaded
+from harmony_cli.robot.prepare import UrdfPlan, prepare_urdf
+from harmony_cli.robot.urdf import joint_types, wrist_sensor_joints
 
 if TYPE_CHECKING:
     from harmony_cli.scenario.robot import RobotSpec
@@ -34,6 +37,10 @@ class Robot:
     home: np.ndarray
     base_joints: tuple[int, ...]  # indices of the velocity-commanded virtual planar joints
     pinned_joints: tuple[int, ...]  # indices held at home in every MPC (the head)
+    continuous: tuple[int, ...] = ()  # indices of joints the URDF declares continuous (unbounded)
+    prismatic: tuple[int, ...] = ()  # indices of prismatic joints (base x, y included): values in metres
+    notes: tuple[str, ...] = ()  # what preparing the URDF changed and what its parser said, for run.log
+    overloaded: tuple[str, ...] = ()  # joints whose URDF effort cannot hold the home pose against gravity
 
     @property
     def n_dof(self) -> int:
@@ -55,22 +62,42 @@ class Robot:
         return [(np.array(cs.DM(p)), np.array(cs.DM(r))) for p, r in poses]
 
 
-def load_robot(spec: RobotSpec, scenario_dir: Path) -> Robot:
-    """Build the robot of a validated scenario `robot` section (paths relative to the scenario file); a URDF
-    without the planar base joints gets them, and package:// meshes resolve through `package_paths`."""
-    urdf = prepare_urdf(
-        (scenario_dir / spec.urdf).resolve(),
-        tuple(spec.base_joints),
-        [(scenario_dir / p).resolve() for p in spec.package_paths],
-        CACHE_DIR / "urdf",
+def urdf_plan(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) -> UrdfPlan:
+    """What a robot section asks of its URDF (paths relative to the scenario file); `keep`: links that must stay."""
+    return UrdfPlan(
+        base_joints=tuple(spec.base_joints),
+        package_paths=tuple((scenario_dir / p).resolve() for p in spec.package_paths),
+        active=None if spec.active_joints is None else tuple(spec.active_joints),
+        home=dict(spec.home),
+        tools=dict(spec.tools),
+        mount=None if spec.mount is None else (list(spec.mount.xyz), list(spec.mount.rpy_deg)),
+        keep=tuple(spec.end_effectors.values()) + keep,
     )
-    model = optas.RobotModel(urdf_filename=str(urdf), time_derivs=[0])
+
+
+def load_robot(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) -> Robot:
+    """Build the robot of a validated scenario `robot` section from its prepared URDF (robot/prepare.py); the
+    URDF parser's complaints go to `Robot.notes`, not the console. ValueError for what cannot be built."""
+    prepared = prepare_urdf(
+        (scenario_dir / spec.urdf).resolve(), urdf_plan(spec, scenario_dir, keep), CACHE_DIR / "urdf"
+    )
+    with captured_output() as parser_output:
+        model = optas.RobotModel(urdf_filename=str(prepared.path), time_derivs=[0])
     names = tuple(model.actuated_joint_names)
     home = np.zeros(len(names))
-    for joint, degrees in spec.home_deg.items():
-        home[names.index(joint)] = np.deg2rad(degrees)
+    for joint, value in prepared.home.items():
+        if joint in names:
+            home[names.index(joint)] = value
+    x, y, yaw_deg = spec.base_pose
+    for joint, value in zip(spec.base_joints, (x, y, np.deg2rad(yaw_deg)), strict=True):
+        home[names.index(joint)] = value
+    for field, joints in (("pinned_joints", spec.pinned_joints), ("chest_joints", spec.chest_joints)):
+        for joint in joints:
+            if joint not in names:
+                raise ValueError(f"robot.{field}: {joint!r} is not an active joint; {closest(joint, names)}")
+    base = tuple(names.index(j) for j in spec.base_joints)
     return Robot(
-        urdf=urdf,
+        urdf=prepared.path,
         model=model,
         joint_names=names,
         lower=np.array(model.lower_actuated_joint_limits).ravel(),
@@ -78,8 +105,12 @@ def load_robot(spec: RobotSpec, scenario_dir: Path) -> Robot:
         velocity_limit=np.array(model.velocity_actuated_joint_limits).ravel(),
         end_effectors=tuple(spec.end_effectors.values()),
         hand_names=tuple(spec.end_effectors.keys()),
-        wrist_sensors=tuple(wrist_sensor_joints(spec, urdf).values()),
+        wrist_sensors=tuple(wrist_sensor_joints(spec, prepared.path).values()),
         home=home,
-        base_joints=tuple(names.index(j) for j in spec.base_joints),
+        base_joints=base,
         pinned_joints=tuple(names.index(j) for j in spec.pinned_joints),
+        continuous=tuple(names.index(j) for j in prepared.continuous),
+        prismatic=tuple(i for i, kind in enumerate(map(joint_types(prepared.path).get, names)) if kind == "prismatic"),
+        notes=tuple(prepared.notes() + [f"urdf parser: {line}" for line in parser_output]),
+        overloaded=tuple(overloaded(prepared.path, names, home, skip=base)),
     )

@@ -1,109 +1,188 @@
-"""Make a user URDF loadable by harmony: add a virtual planar base and resolve mesh filenames.
+"""Make a robot package's URDF loadable by harmony, as a prepared copy in the cache.
 
-OpTaS handles no planar/floating/continuous joints, so a mobile base must be written as two
-prismatic joints (x, y) and one revolute joint (yaw) between a world root and the robot's root
-link.  Mesh filenames become absolute paths so the rewritten URDF can live in a cache directory.
+In order: elements and joint types the parsers reject or misread are made explicit (robot/sanitize.py); the
+joints a scenario does not use are locked (fixed at their home value; mimic joints follow their master); declared
+tool frames are added (robot/tools.py); the virtual planar base goes above the root (robot/placement.py); links
+without inertia get a small one; fixed links merge into their parents when PyBullet could not take them all
+(robot/reduce.py); mesh filenames become absolute paths, so the copy can live in the cache.
 """
 
 from __future__ import annotations
 
+import fnmatch
 import hashlib
 import os
 import tempfile
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
+import numpy as np
+
+from harmony_cli.names import closest
+from harmony_cli.robot.placement import ensure_base_joints, root_link_of
+from harmony_cli.robot.reduce import lock_joints, merge_fixed_links
+from harmony_cli.robot.sanitize import (
+    Mimic,
+    add_missing_inertials,
+    continuous_to_revolute,
+    mimic_joints,
+    strip_foreign_elements,
+)
+from harmony_cli.robot.tools import add_tool
 from harmony_cli.robot.urdf import required
 
+if TYPE_CHECKING:
+    from harmony_cli.scenario.robot import ToolSpec
+
 PACKAGE_SCHEME = "package://"
-BASE_LIMIT = 1000.0
-BASE_EFFORT = 1e4
-BASE_VELOCITIES = (1.5, 1.5, 2.0)  # x, y [m/s], yaw [rad/s]
-BASE_AXES = ("1 0 0", "0 1 0", "0 0 1")
-BASE_TYPES = ("prismatic", "prismatic", "revolute")
-LINK_PREFIXES = ("", "harmony_")  # the first one whose new link names are all free is used
+PYBULLET_MAX_JOINTS = 128  # one multibody's links (= joints) PyBullet can report states of
+HOME_TOLERANCE = 1e-9
 
 
-def prepare_urdf(urdf: Path, base_joints: tuple[str, ...], package_paths: list[Path], cache_dir: Path) -> Path:
-    """Return a URDF with the virtual base `base_joints` and absolute mesh paths.
+@dataclass(frozen=True)
+class UrdfPlan:
+    """What a scenario asks of the URDF, in the URDF's own names."""
 
-    The original path comes back when nothing had to change; otherwise the rewritten URDF is
-    written to `cache_dir` as `<stem>_<content hash>.urdf`.
-    """
+    base_joints: tuple[str, ...] = ("base_x", "base_y", "base_yaw")
+    package_paths: tuple[Path, ...] = ()
+    active: tuple[str, ...] | None = None  # fnmatch patterns of the joints the MPCs use; None: every movable one
+    home: dict[str, float] = field(default_factory=dict)  # [deg] revolute and continuous, [m] prismatic
+    tools: dict[str, ToolSpec] = field(default_factory=dict)
+    mount: tuple[list[float], list[float]] | None = None  # xyz [m], rpy [deg] of the root on the base
+    keep: tuple[str, ...] = ()  # links that must stay links (end effectors, pushed links)
+
+
+@dataclass(frozen=True)
+class PreparedUrdf:
+    """The prepared URDF and what preparing it changed."""
+
+    path: Path
+    home: dict[str, float]  # every joint the plan's home names [rad | m]; continuous joints wrapped to (-pi, pi]
+    continuous: tuple[str, ...]  # now revolute joints with wide limits
+    locked: dict[str, float]  # now fixed joints, at these values [rad | m]
+    dropped: dict[str, int]  # top-level element tag -> how many were dropped
+    massless: tuple[str, ...]  # links given a small inertia
+    merged: tuple[str, ...]  # links merged into their parents
+
+    def notes(self) -> list[str]:
+        """One line per kind of change, for run.log and `harmony robots show`."""
+        kinds = {
+            "dropped elements": [f"{tag} x{n}" for tag, n in self.dropped.items()],
+            "continuous joints (unbounded revolute)": list(self.continuous),
+            "locked joints": [f"{j}={v:.4g}" for j, v in self.locked.items()],
+            "links given a small inertia": list(self.massless),
+            "fixed links merged into their parents": list(self.merged),
+        }
+        return [f"urdf: {kind}: {len(items)}: {', '.join(items)}" for kind, items in kinds.items() if items]
+
+
+def prepare_urdf(urdf: Path, plan: UrdfPlan, cache_dir: Path) -> PreparedUrdf:
+    """Prepare `urdf` for `plan`; the original path comes back when nothing had to change, otherwise the copy
+    written to `cache_dir` as `<stem>_<content hash>.urdf`. ValueError (`robot.<field>: ...`) for what cannot be."""
     original, urdf = Path(urdf), Path(urdf).resolve()
-    parser = ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))
-    tree = ET.parse(urdf, parser=parser)
+    tree = ET.parse(urdf, parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
     robot = tree.getroot()
-    added_base = _ensure_base_joints(robot, urdf, base_joints)
-    resolved_meshes = _resolve_mesh_filenames(robot, urdf, [Path(p) for p in package_paths])
-    if not (added_base or resolved_meshes):
-        return original
-    ET.indent(tree, space="  ")
-    text = '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"
-    return _write_cached(text, urdf.stem, Path(cache_dir))
+    dropped = strip_foreign_elements(robot)
+    mimics = mimic_joints(robot)
+    home = home_values(robot, plan.home, urdf, plan.base_joints)
+    movable = [
+        required(j, "name", "joint")
+        for j in robot.findall("joint")
+        if j.get("type") != "fixed" and j.get("name") not in plan.base_joints
+    ]
+    active = select_active(movable, plan.active, mimics, urdf)
+    locked = {j: home.get(j, 0.0) for j in movable if j not in active and j not in mimics}
+    locked |= {j: m.value(locked.get(m.master, 0.0)) for j, m in mimics.items() if j in movable}
+    lock_joints(robot, locked)
+    continuous = continuous_to_revolute(robot)
+    for hand, tool in plan.tools.items():
+        add_tool(robot, hand, tool)
+    added_base = ensure_base_joints(robot, urdf, plan.base_joints, plan.mount)
+    massless = add_missing_inertials(robot, root_link_of(robot, urdf))
+    merged = []
+    if len(robot.findall("joint")) > PYBULLET_MAX_JOINTS:
+        merged = merge_fixed_links(robot, _fixed_chains(robot, plan.keep))
+    meshes = _resolve_mesh_filenames(robot, urdf, list(plan.package_paths))
+    path = original
+    if dropped or locked or continuous or plan.tools or added_base or massless or merged or meshes:
+        ET.indent(tree, space="  ")
+        path = _write_cached(f'<?xml version="1.0"?>\n{ET.tostring(robot, encoding="unicode")}\n', urdf.stem, cache_dir)
+    return PreparedUrdf(path, home, tuple(continuous), locked, dropped, tuple(massless), tuple(merged))
 
 
-def _ensure_base_joints(robot: ET.Element, urdf: Path, base_joints: tuple[str, ...]) -> bool:
-    """Add the x/y/yaw base joints above the root link unless they all exist; True if added."""
-    joint_names = {joint.get("name") for joint in robot.findall("joint")}
-    present = [name for name in base_joints if name in joint_names]
-    if len(present) == len(base_joints):
-        return False
-    if present:
-        missing = [name for name in base_joints if name not in joint_names]
-        raise ValueError(
-            f"{urdf}: base joints {missing} are missing while {present} exist; "
-            "give all three virtual base joints or none"
-        )
-    root_link = _root_link(robot, urdf)
-    link_names = {link.get("name") for link in robot.findall("link")}
-    prefix = next(
-        (p for p in LINK_PREFIXES if not link_names & {f"{p}world_origin", f"{p}base_px", f"{p}base_py"}), None
-    )
-    if prefix is None:
-        raise ValueError(f"{urdf}: cannot add a virtual base, link names world_origin/base_px/base_py are taken")
-    chain = [f"{prefix}world_origin", f"{prefix}base_px", f"{prefix}base_py", root_link]
-    new_elements = [_tiny_link(name) for name in chain[:3]]
-    for i, name in enumerate(base_joints):
-        new_elements.append(_base_joint(name, BASE_TYPES[i], chain[i], chain[i + 1], BASE_AXES[i], BASE_VELOCITIES[i]))
-    robot[0:0] = new_elements  # first in file order, so first among the actuated joints
-    return True
+def home_values(
+    robot: ET.Element, home: dict[str, float], urdf: Path, base_joints: tuple[str, ...] = ()
+) -> dict[str, float]:
+    """The home pose in SI units: degrees -> rad for revolute and continuous joints (continuous ones wrapped),
+    metres for prismatic ones; ValueError for a fixed or unknown joint or a value outside the joint's limits."""
+    joints = {required(j, "name", "joint"): j for j in robot.findall("joint")}
+    values = {}
+    for name, given in home.items():
+        if name in base_joints:
+            raise ValueError(f"robot.home.{name}: a base joint; give the base's start as robot.base_pose [x, y, yaw]")
+        joint = joints.get(name)
+        if joint is None:
+            raise ValueError(f"robot.home.{name}: not a joint of {urdf.name}; {closest(name, joints)}")
+        kind, limit = joint.get("type"), joint.find("limit")
+        if kind not in ("revolute", "continuous", "prismatic"):
+            raise ValueError(f"robot.home.{name}: a {kind} joint has no home; name a movable joint")
+        value = given if kind == "prismatic" else float(np.deg2rad(given))
+        if kind == "continuous":
+            value = float(np.pi - (np.pi - value) % (2 * np.pi))
+        elif limit is not None:
+            lower, upper = float(limit.get("lower", 0.0)), float(limit.get("upper", 0.0))
+            if not lower - HOME_TOLERANCE <= value <= upper + HOME_TOLERANCE:
+                unit, scale = ("m", 1.0) if kind == "prismatic" else ("deg", 180 / np.pi)
+                raise ValueError(
+                    f"robot.home.{name}: {given:g} {unit} is outside the joint's limits "
+                    f"[{lower * scale:.4g}, {upper * scale:.4g}] {unit}"
+                )
+        values[name] = value
+    return values
 
 
-def _root_link(robot: ET.Element, urdf: Path) -> str:
-    """The one link that is no joint's child."""
-    children = {required(joint.find("child"), "link", "joint child") for joint in robot.findall("joint")}
-    roots = [required(link, "name", "link") for link in robot.findall("link") if link.get("name") not in children]
-    if len(roots) != 1:
-        raise ValueError(f"{urdf}: expected one root link, found {roots}")
-    return roots[0]
+def select_active(
+    movable: list[str], patterns: tuple[str, ...] | None, mimics: dict[str, Mimic], urdf: Path
+) -> list[str]:
+    """The movable joints `patterns` match (all but mimic joints when None); mimic couplings refused."""
+    if patterns is None:
+        chosen = [j for j in movable if j not in mimics]
+    else:
+        for pattern in patterns:
+            if not fnmatch.filter(movable, pattern):
+                raise ValueError(
+                    f"robot.active_joints: {pattern!r} matches no movable joint of {urdf.name}; "
+                    f"{closest(pattern, movable)}"
+                )
+        chosen = [j for j in movable if any(fnmatch.fnmatchcase(j, p) for p in patterns)]
+    for joint, mimic in mimics.items():
+        if joint in chosen:
+            raise ValueError(
+                f"robot.active_joints: {joint!r} mimics {mimic.master!r} and harmony does not couple joints; "
+                f"leave it out (it is then locked, following {mimic.master!r})"
+            )
+        if mimic.master in chosen:
+            by_default = " (every movable joint is by default)" if patterns is None else ""
+            raise ValueError(
+                f"robot.active_joints: {mimic.master!r} is active{by_default} but {joint!r} mimics it and harmony "
+                f"does not couple joints; list the joints the MPCs use in robot.active_joints without "
+                f"{mimic.master!r} (both are then locked at home)"
+            )
+    return chosen
 
 
-def _tiny_link(name: str) -> ET.Element:
-    """A geometry-free, nearly massless link (1 g: simulators replace a missing inertial by 1 kg)."""
-    link = ET.Element("link", name=name)
-    inertial = ET.SubElement(link, "inertial")
-    ET.SubElement(inertial, "origin", xyz="0 0 0", rpy="0 0 0")
-    ET.SubElement(inertial, "mass", value="1e-3")
-    ET.SubElement(inertial, "inertia", ixx="1e-6", ixy="0", ixz="0", iyy="1e-6", iyz="0", izz="1e-6")
-    return link
-
-
-def _base_joint(name: str, kind: str, parent: str, child: str, axis: str, velocity: float) -> ET.Element:
-    joint = ET.Element("joint", name=name, type=kind)
-    ET.SubElement(joint, "parent", link=parent)
-    ET.SubElement(joint, "child", link=child)
-    ET.SubElement(joint, "origin", xyz="0 0 0", rpy="0 0 0")
-    ET.SubElement(joint, "axis", xyz=axis)
-    ET.SubElement(
-        joint,
-        "limit",
-        lower=f"{-BASE_LIMIT:g}",
-        upper=f"{BASE_LIMIT:g}",
-        effort=f"{BASE_EFFORT:g}",
-        velocity=f"{velocity:g}",
-    )
-    return joint
+def _fixed_chains(robot: ET.Element, links: tuple[str, ...]) -> set[str]:
+    """`links` and every link above them up to the nearest movable joint (the wrist chains stay whole)."""
+    parent_joint = {required(j.find("child"), "link", "joint child"): j for j in robot.findall("joint")}
+    kept = set()
+    for link in links:
+        kept.add(link)
+        while link in parent_joint and parent_joint[link].get("type") == "fixed":
+            link = required(parent_joint[link].find("parent"), "link", "joint parent")
+            kept.add(link)
+    return kept
 
 
 def _resolve_mesh_filenames(robot: ET.Element, urdf: Path, package_paths: list[Path]) -> bool:

@@ -26,6 +26,11 @@ def joints_and_links(urdf: Path) -> tuple[set[str], set[str]]:
     )
 
 
+def joint_types(urdf: Path) -> dict[str, str]:
+    """Joint name -> URDF type (revolute, continuous, prismatic, fixed, ...)."""
+    return {required(j, "name", "joint"): str(j.get("type")) for j in ET.parse(urdf).getroot().findall("joint")}
+
+
 def actuated_joint_names(urdf: Path) -> list[str]:
     """Names of the non-fixed joints of `urdf`, in file order (the order OpTaS uses)."""
     robot = ET.parse(urdf).getroot()

@@ -1,6 +1,7 @@
 """Scenario files: pydantic models (unknown keys rejected), loading with `--set` overrides, one-line errors and
 cross-checks. Everything a run uses is validated here; inside harmony there are no dicts and no re-checks."""
 
+from harmony_cli.scenario.checks import robot_of, robot_warnings
 from harmony_cli.scenario.errors import ScenarioError
 from harmony_cli.scenario.loading import apply_overrides, load_scenario, scenario_yaml
 from harmony_cli.scenario.models import (
@@ -42,5 +43,7 @@ __all__ = [
     "Weights",
     "apply_overrides",
     "load_scenario",
+    "robot_of",
+    "robot_warnings",
     "scenario_yaml",
 ]

@@ -2,51 +2,97 @@
 
 from __future__ import annotations
 
+import xml.etree.ElementTree as ET
+from functools import cache
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from harmony_cli.robot.urdf import joints_and_links, wrist_sensor_joints
+from harmony_cli.names import closest
+from harmony_cli.robot.tools import tool_link
+from harmony_cli.robot.urdf import joints_and_links
 from harmony_cli.scenario.errors import ScenarioError
 from harmony_cli.scenario.models import Scenario
+from harmony_cli.scenario.robot import RobotSpec
 from harmony_cli.scenario.task import RelativeTarget
+
+if TYPE_CHECKING:
+    from harmony_cli.robot.model import Robot
 
 
 def check_robot(path: Path, scenario: Scenario) -> None:
-    urdf = (path.parent / scenario.robot.urdf).resolve()
+    """Names the robot section gives exist in the URDF (the three closest suggested when not)."""
+    spec = scenario.robot
+    urdf = (path.parent / spec.urdf).resolve()
     if not urdf.is_file():
-        raise ScenarioError(f"{path}: robot.urdf: {scenario.robot.urdf!r} does not exist (looked at {urdf})")
-    joints, links = joints_and_links(urdf)
-    for hand, link in scenario.robot.end_effectors.items():
+        raise ScenarioError(f"{path}: robot.urdf: {spec.urdf!r} does not exist (looked at {urdf})")
+    try:
+        joints, links = joints_and_links(urdf)
+    except (ET.ParseError, ValueError) as err:
+        raise ScenarioError(f"{path}: robot.urdf: {urdf.name} is not a readable URDF: {err}") from None
+    links |= {tool_link(hand) for hand in spec.tools}
+    for hand, link in spec.end_effectors.items():
         if link not in links:
             raise ScenarioError(
-                f"{path}: robot.end_effectors.{hand}: {link!r} is not a link of {urdf.name}; "
-                f"links: {', '.join(sorted(links))}"
+                f"{path}: robot.end_effectors.{hand}: {link!r} is not a link of {urdf.name}; {closest(link, links)}"
             )
-    base = scenario.robot.base_joints
-    if not set(base) & joints:  # none of them: prepare_urdf adds all three
-        joints = joints | set(base)
+    for hand, tool in spec.tools.items():
+        if tool.parent not in links:
+            raise ScenarioError(
+                f"{path}: robot.tools.{hand}.parent: {tool.parent!r} is not a link of {urdf.name}; "
+                f"{closest(tool.parent, links)}"
+            )
+    if not set(spec.base_joints) & joints:  # none of them: prepare_urdf adds all three
+        joints = joints | set(spec.base_joints)
     named = {
-        "base_joints": base,
-        "pinned_joints": scenario.robot.pinned_joints,
-        "chest_joints": scenario.robot.chest_joints,
-        "mirrored_joints": [j for pair in scenario.robot.mirrored_joints for j in pair],
-        "home_deg": list(scenario.robot.home_deg),
+        "base_joints": spec.base_joints,
+        "pinned_joints": spec.pinned_joints,
+        "chest_joints": spec.chest_joints,
+        "mirrored_joints": [j for pair in spec.mirrored_joints for j in pair],
+        "home": list(spec.home),
     }
     for field, names in named.items():
         for joint in names:
             if joint not in joints:
                 raise ScenarioError(
-                    f"{path}: robot.{field}: {joint!r} is not a joint of {urdf.name}; "
-                    f"joints: {', '.join(sorted(joints))}"
+                    f"{path}: robot.{field}: {joint!r} is not a joint of {urdf.name}; {closest(joint, joints)}"
                 )
-    if not scenario.robot.footprint and (scenario.world.obstacles or scenario.world.tables):
+    if not spec.footprint and (scenario.world.obstacles or scenario.world.tables):
         raise ScenarioError(
             f"{path}: robot.footprint: empty, but the world has obstacles or tables the base must "
             f"keep clear of; give circles [x, y, radius] in the base frame covering the base"
         )
+
+
+def check_robot_builds(path: Path, scenario: Scenario) -> None:
+    """The robot is prepared and built as a run builds it: what a run would reject about it, rejected here."""
     try:
-        wrist_sensor_joints(scenario.robot, urdf)
-    except ValueError as err:
-        raise ScenarioError(f"{path}: {err}") from None
+        robot_of(scenario, path.parent)
+    except (ValueError, FileNotFoundError, ET.ParseError) as err:
+        raise ScenarioError(f"{path}: {str(err).strip().splitlines()[0]}") from None
+
+
+def robot_of(scenario: Scenario, scenario_dir: Path) -> Robot:
+    """The scenario's robot, built once per process for a robot section (validation, then the run)."""
+    pushed = tuple(p.link for p in scenario.pushes if p.body == "robot" and p.link is not None)
+    return _robot(scenario.robot.model_dump_json(), scenario_dir.resolve(), pushed)
+
+
+@cache
+def _robot(spec_json: str, scenario_dir: Path, keep: tuple[str, ...]) -> Robot:
+    from harmony_cli.robot.model import load_robot  # loads OpTaS and CasADi: not for `schema`
+
+    return load_robot(RobotSpec.model_validate_json(spec_json), scenario_dir, keep)
+
+
+def robot_warnings(scenario: Scenario, scenario_dir: Path) -> list[str]:
+    """What a run of this scenario should be warned about its robot (one line each)."""
+    robot = robot_of(scenario, scenario_dir)
+    if robot.overloaded and scenario.sim.actuators == "urdf":
+        return [
+            f"robot: at home, gravity needs more than the URDF's effort [N m | N] at {', '.join(robot.overloaded)}: "
+            "the simulated robot will sag; set sim.actuators: ideal (strong motors) or choose another home"
+        ]
+    return []
 
 
 def check_task(path: Path, scenario: Scenario) -> None:
@@ -99,7 +145,7 @@ def check_pushes(path: Path, scenario: Scenario) -> None:
         if push.link is not None and push.link not in links:
             raise ScenarioError(
                 f"{where}.link: {push.link!r} is not a link of {Path(scenario.robot.urdf).name}; "
-                f"links: {', '.join(sorted(links))}"
+                f"{closest(push.link, links)}"
             )
 
 

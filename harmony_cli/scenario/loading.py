@@ -9,7 +9,7 @@ from pathlib import Path
 import yaml
 from pydantic import ValidationError
 
-from harmony_cli.scenario.checks import check_pushes, check_robot, check_solver, check_task
+from harmony_cli.scenario.checks import check_pushes, check_robot, check_robot_builds, check_solver, check_task
 from harmony_cli.scenario.errors import ScenarioError, one_line
 from harmony_cli.scenario.models import Scenario
 
@@ -61,6 +61,7 @@ def load_scenario(path: str | Path, overrides: Sequence[str] = ()) -> Scenario:
     check_task(path, scenario)
     check_pushes(path, scenario)
     check_solver(path, scenario)
+    check_robot_builds(path, scenario)
     return scenario
 
 

@@ -1,5 +1,6 @@
-"""The robot section: a URDF, its hands, the roles of its joints and its base footprint, each field defaulting to
-the robot profile's (EVA's when neither `profile` nor `urdf` is given)."""
+"""The robot section: a URDF, its hands and tool frames, the joints the MPCs use and the roles of some, its home
+pose, placement and base footprint, each field defaulting to the robot preset's (EVA's when neither `preset` nor
+`urdf` is given)."""
 
 from __future__ import annotations
 
@@ -7,21 +8,48 @@ from typing import Any
 
 from pydantic import Field, field_validator, model_validator
 
-from harmony_cli.robot.profiles import available_profiles, load_profile
-from harmony_cli.scenario.base import Strict
+from harmony_cli.robot.presets import PresetUnavailable, available_presets, load_preset
+from harmony_cli.robot.tools import tool_link
+from harmony_cli.scenario.base import Strict, Vector3
 
-DEFAULT_PROFILE = "eva"
+DEFAULT_PRESET = "eva"
+
+
+class ToolSpec(Strict):
+    """A tool frame and its pad, added below a gripper link: what any gripper squeezes an object with."""
+
+    parent: str = Field(description="gripper link the pad is fixed to")
+    xyz: Vector3 = Field(description="the pad's outer face centre in the parent link's frame [m]")
+    rpy_deg: Vector3 = Field(
+        (0.0, 0.0, 0.0), description="the frame's orientation in the parent's [deg]: z = pad normal, out of the hand"
+    )
+    pad: Vector3 = Field((0.06, 0.04, 0.01), description="pad box size x, y, thickness [m], behind the face (along -z)")
+
+
+class MountSpec(Strict):
+    xyz: Vector3 = Field((0.0, 0.0, 0.0), description="the robot's root link on the virtual base [m]")
+    rpy_deg: Vector3 = Field((0.0, 0.0, 0.0), description="[deg]")
 
 
 class RobotSpec(Strict):
-    profile: str | None = Field(
+    preset: str | None = Field(
         None,
-        description=f"robot profile (harmony_cli/robot/profiles/<name>.yaml) that gives every field not set "
-        f"here; default {DEFAULT_PROFILE!r} when `urdf` is not given, else none",
+        description=f"robot preset (harmony_cli/robot/presets/<name>.yaml) that gives every field not set "
+        f"here; default {DEFAULT_PRESET!r} when `urdf` is not given, else none",
     )
-    urdf: str = Field(description="URDF path, relative to the scenario file (required without a profile)")
+    urdf: str = Field(description="URDF path, relative to the scenario file (required without a preset)")
     end_effectors: dict[str, str] = Field(
-        description="hand label -> end-effector link (the frame every MPC controls; required without a profile)"
+        {},
+        description="hand label -> end-effector link, the frame every MPC controls (z = pad normal, out of the "
+        "hand); a hand with a tool uses the tool's frame; required without a preset",
+    )
+    tools: dict[str, ToolSpec] = Field(
+        {}, description="hand label -> a tool frame and pad harmony adds (for grippers without such a frame)"
+    )
+    active_joints: list[str] | None = Field(
+        None,
+        description="joints the MPCs use (names or fnmatch patterns such as arm_left_*); every other joint is "
+        "locked at its home value; default: every movable joint (the base joints always)",
     )
     base_joints: list[str] = Field(
         ["base_x", "base_y", "base_yaw"],
@@ -40,8 +68,13 @@ class RobotSpec(Strict):
     pinned_joints: list[str] = Field([], description="held at home in every MPC (EVA: the head)")
     chest_joints: list[str] = Field([], description="torso joints (regularised towards 0)")
     mirrored_joints: list[tuple[str, str]] = Field([], description="pairs regularised to (a + b)^2 -> 0")
-    home_deg: dict[str, float] = Field(
-        {}, description="joint -> home angle in degrees (metres for prismatic); others 0"
+    home: dict[str, float] = Field(
+        {},
+        description="joint -> home value, degrees for revolute and continuous joints, metres for prismatic; others 0",
+    )
+    base_pose: Vector3 = Field((0.0, 0.0, 0.0), description="the base's start in the world: x [m], y [m], yaw [deg]")
+    mount: MountSpec | None = Field(
+        None, description="pose of the URDF's root link on the virtual base harmony adds (e.g. a mounting height)"
     )
     footprint: list[tuple[float, float, float]] = Field(
         [],
@@ -52,18 +85,30 @@ class RobotSpec(Strict):
 
     @model_validator(mode="before")
     @classmethod
-    def _from_profile(cls, raw: Any) -> Any:
-        """Fields not given come from the profile (an unknown profile is reported by the field's validator)."""
+    def _from_preset(cls, raw: Any) -> Any:
+        """Fields not given come from the preset (an unknown preset is reported by the field's validator)."""
         if not isinstance(raw, dict):
             return raw
-        name = raw.get("profile", DEFAULT_PROFILE if "urdf" not in raw else None)
-        if name not in available_profiles():
+        name = raw.get("preset", DEFAULT_PRESET if "urdf" not in raw else None)
+        if name not in available_presets():
             return raw
-        return load_profile(name) | raw | {"profile": name}
+        try:
+            return load_preset(name) | raw | {"preset": name}
+        except PresetUnavailable as err:
+            raise ValueError(str(err)) from None
 
-    @field_validator("profile")
+    @model_validator(mode="after")
+    def _tool_frames(self) -> RobotSpec:
+        """A hand with a tool controls the tool's frame; two hands at least."""
+        frames = self.end_effectors | {hand: tool_link(hand) for hand in self.tools}
+        object.__setattr__(self, "end_effectors", frames)
+        if len(frames) < 2:
+            raise ValueError(f"end_effectors: {sorted(frames)}: a dual-arm robot needs two hands (or tools)")
+        return self
+
+    @field_validator("preset")
     @classmethod
-    def _known_profile(cls, name: str | None) -> str | None:
-        if name is not None and name not in available_profiles():
-            raise ValueError(f"not a robot profile; choose one of: {', '.join(available_profiles())}")
+    def _known_preset(cls, name: str | None) -> str | None:
+        if name is not None and name not in available_presets():
+            raise ValueError(f"not a robot preset; choose one of: {', '.join(available_presets())}")
         return name

@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
-import os
-import sys
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -12,8 +9,10 @@ import numpy as np
 import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
+from harmony_cli.capture import captured_output
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.observation import Observation
+from harmony_cli.sim import PYBULLET_BANNER
 from harmony_cli.sim.pushes import Pushes
 from harmony_cli.sim.world import World
 from harmony_cli.sim.wrench import WristSensors
@@ -39,18 +38,7 @@ class Truth:
     clearance_box_m: dict[str, float]  # per obstacle, the box's
 
 
-@contextlib.contextmanager
-def _silenced_stdout():
-    """PyBullet prints 'argv[0]=' from C on connect; keep the CLI's stdout clean."""
-    sys.stdout.flush()
-    saved = os.dup(1)
-    with open(os.devnull, "w") as null:
-        os.dup2(null.fileno(), 1)
-        try:
-            yield
-        finally:
-            os.dup2(saved, 1)
-            os.close(saved)
+IDEAL_EFFORT = 1e4  # [N m | N] motor force limit of sim.actuators: ideal
 
 
 class Simulation:
@@ -60,13 +48,15 @@ class Simulation:
         self, robot: Robot, sim_spec: SimSpec, world: WorldSpec | None = None, pushes: Sequence[PushSpec] = ()
     ):
         self.robot, self.spec = robot, sim_spec
-        with _silenced_stdout():
+        with captured_output() as output:  # PyBullet's C prints ('argv[0]=', URDF warnings): for run.log
             self.client = BulletClient(connection_mode=pybullet.DIRECT)
-        self.client.setGravity(0, 0, -9.81)
-        self.client.setPhysicsEngineParameter(fixedTimeStep=sim_spec.physics_dt, deterministicOverlappingPairs=1)
-        ground = self.client.createCollisionShape(pybullet.GEOM_PLANE)
-        self.client.createMultiBody(0, ground)
-        self.body = self.client.loadURDF(str(robot.urdf), useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
+            self.client.setGravity(0, 0, -9.81)
+            self.client.setPhysicsEngineParameter(fixedTimeStep=sim_spec.physics_dt, deterministicOverlappingPairs=1)
+            ground = self.client.createCollisionShape(pybullet.GEOM_PLANE)
+            self.client.createMultiBody(0, ground)
+            flags = pybullet.URDF_USE_INERTIA_FROM_FILE
+            self.body = self.client.loadURDF(str(robot.urdf), useFixedBase=True, flags=flags)
+        self.notes = [f"pybullet: {line}" for line in PYBULLET_BANNER + output]
         by_name = {}
         for i in range(self.client.getNumJoints(self.body)):
             info = self.client.getJointInfo(self.body, i)
@@ -75,6 +65,8 @@ class Simulation:
                 by_name[info[12].decode()] = i  # link index == index of its parent joint
         self.joints = [by_name[j] for j in robot.joint_names]
         self.effort = np.array([self.client.getJointInfo(self.body, j)[10] for j in self.joints])
+        if sim_spec.actuators == "ideal":
+            self.effort[[i for i in range(robot.n_dof) if i not in robot.base_joints]] = IDEAL_EFFORT
         self.hand_links = [by_name[link] for link in robot.end_effectors]
         self.base = list(robot.base_joints)
         self.others = [i for i in range(robot.n_dof) if i not in robot.base_joints]

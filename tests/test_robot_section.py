@@ -1,0 +1,133 @@
+"""The robot section beyond the URDF: presets, tool frames, mounting, the base's start, home units, and what
+`validate` rejects about a robot (one line, the three closest names)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import casadi
+import numpy as np
+import pytest
+from conftest import assert_rejected
+from typer.testing import CliRunner
+
+from harmony_cli.cli import app
+from harmony_cli.robot.presets import available_presets
+from harmony_cli.scenario import load_scenario, robot_of
+from harmony_cli.sim.simulation import Simulation
+
+runner = CliRunner()
+TWIN = "name: x\nrobot: {preset: twin_arm%s}\nreference: {type: hold}\n"
+
+
+def _robot(tmp_path: Path, fields: str = ""):
+    path = tmp_path / "robot.yaml"
+    path.write_text(TWIN % fields)
+    scenario = load_scenario(path)
+    return scenario, robot_of(scenario, tmp_path)
+
+
+def _position(robot, link: str, q) -> np.ndarray:
+    return np.array(casadi.DM(robot.model.get_global_link_position(link, q))).ravel()
+
+
+def _rotation(robot, link: str, q) -> np.ndarray:
+    return np.array(casadi.DM(robot.model.get_global_link_rotation(link, q)))
+
+
+def test_a_mount_raises_every_hand_frame_by_its_height(tmp_path):
+    _, plain = _robot(tmp_path)
+    _, mounted = _robot(tmp_path, ", mount: {xyz: [0.1, 0, 0.25], rpy_deg: [0, 0, 90]}")
+    assert mounted.n_dof == plain.n_dof
+    for link in plain.end_effectors:
+        p, m = _position(plain, link, plain.home), _position(mounted, link, mounted.home)
+        np.testing.assert_allclose(m, [0.1 - p[1], p[0], p[2] + 0.25], atol=1e-9)  # yawed 90 deg, then lifted
+
+
+def test_the_base_pose_is_the_start_of_the_base_joints(tmp_path):
+    _, robot = _robot(tmp_path, ", base_pose: [1.5, -2.0, 30]")
+    np.testing.assert_allclose(robot.home[list(robot.base_joints)], [1.5, -2.0, np.deg2rad(30)])
+
+
+def test_a_declared_tool_frame_sits_on_its_parent_and_carries_the_wrist_sensor(tmp_path):
+    tools = ", tools: {left: {parent: l_hand, xyz: [0.05, 0, 0.02], rpy_deg: [90, 0, 0], pad: [0.05, 0.05, 0.01]}}"
+    scenario, robot = _robot(tmp_path, tools)
+    assert robot.end_effectors[0] == "harmony_left_tool" and robot.wrist_sensors[0] == "harmony_left_pad_joint"
+    q = robot.home
+    hand_p, hand_r = _position(robot, "l_hand", q), _rotation(robot, "l_hand", q)
+    np.testing.assert_allclose(_position(robot, "harmony_left_tool", q), hand_p + hand_r @ [0.05, 0, 0.02], atol=1e-9)
+    np.testing.assert_allclose(_rotation(robot, "harmony_left_tool", q)[:, 2], hand_r @ [0, -1, 0], atol=1e-9)
+    sim = Simulation(robot, scenario.sim)  # PyBullet puts the frame where OpTaS does
+    try:
+        np.testing.assert_allclose(sim.observe().hand_positions[0], _position(robot, "harmony_left_tool", q), atol=1e-6)
+    finally:
+        sim.close()
+
+
+def test_revolute_home_is_in_degrees(tmp_path):
+    scenario, robot = _robot(tmp_path, ", home: {l_elbow: 45}")
+    assert robot.home[robot.joint_names.index("l_elbow")] == pytest.approx(np.pi / 4)
+    assert scenario.robot.home == {"l_elbow": 45.0}
+
+
+@pytest.mark.parametrize(
+    ("fields", "pieces"),
+    [
+        (", home: {l_elbow: 400}", ["robot.home.l_elbow: 400 deg is outside the joint's limits"]),
+        (
+            ", end_effectors: {left: l_grsp, right: r_grasp}",
+            ["robot.end_effectors.left: 'l_grsp'", "closest", "l_grasp"],
+        ),
+        (", active_joints: [l_sholder_pitch]", ["robot.active_joints: 'l_sholder_pitch'", "l_shoulder_pitch"]),
+        (
+            ", pinned_joints: [l_elbow], active_joints: ['r_*']",
+            ["robot.pinned_joints: 'l_elbow' is not an active joint"],
+        ),
+        (", home: {base_yaw: 10}", ["robot.home.base_yaw: a base joint", "robot.base_pose"]),
+        (", tools: {left: {parent: l_hnd, xyz: [0, 0, 0]}}", ["robot.tools.left.parent: 'l_hnd'", "l_hand"]),
+    ],
+)
+def test_what_a_run_would_reject_about_the_robot_validate_rejects_in_one_line(tmp_path, fields, pieces):
+    path = tmp_path / "bad.yaml"
+    path.write_text(TWIN % fields)
+    assert_rejected(path, pieces)
+    result = runner.invoke(app, ["validate", str(path)])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+
+
+def test_a_mount_on_a_urdf_with_its_own_base_is_refused(tmp_path):
+    path = tmp_path / "bad.yaml"
+    path.write_text("name: x\nrobot: {preset: eva, mount: {xyz: [0, 0, 1]}}\nreference: {type: hold}\n")
+    assert_rejected(path, ["robot.mount", "has its own base joints"])
+
+
+def test_a_misspelt_name_gets_the_closest_names_not_the_whole_list():
+    from harmony_cli.names import closest
+
+    names = [f"LINK_{i}" for i in range(50)] + ["LARM_TOOL", "RARM_TOOL", "LARM_TOOL_JOINT", "LARM_FT"]
+    suggestion = closest("LARM_TOOLS", names)
+    assert suggestion.startswith("closest (of 54): LARM_TOOL, ") and suggestion.count(",") == 2
+    assert "LINK_" not in suggestion
+
+
+def test_presets_include_the_catalogue():
+    assert {"eva", "twin_arm", "pr2", "tiago_dual", "baxter"} <= set(available_presets())
+
+
+def test_a_scenario_without_a_robot_section_is_eva_from_any_folder(tmp_path):
+    path = tmp_path / "elsewhere" / "hold.yaml"
+    path.parent.mkdir()
+    path.write_text("name: x\nreference: {type: hold}\n")
+    scenario = load_scenario(path)
+    assert robot_of(scenario, path.parent).n_dof == 18
+
+
+def test_robots_lists_presets_and_show_prints_joints_frames_and_gravity():
+    listed = runner.invoke(app, ["robots"])
+    assert listed.exit_code == 0 and all(name in listed.output for name in available_presets())
+    shown = runner.invoke(app, ["robots", "show", "twin_arm"])
+    assert shown.exit_code == 0, shown.output
+    assert "l_shoulder_pitch" in shown.output and "hand left: frame l_grasp" in shown.output
+    assert "gravity check (Pinocchio)" in shown.output
+    wrong = runner.invoke(app, ["robots", "show", "pr3"])
+    assert wrong.exit_code == 2 and "closest" in wrong.output

@@ -1,0 +1,248 @@
+"""URDF intake: each defect class robot packages ship, on a small synthetic dual-arm URDF, prepared and then read
+by OpTaS, Pinocchio and PyBullet, which must agree with the original robot (locked where the scenario locks)."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import casadi
+import numpy as np
+import optas
+import pinocchio as pin
+import pybullet
+import pytest
+from pybullet_utils.bullet_client import BulletClient
+
+import harmony_cli.robot.prepare as prepare_module
+from harmony_cli.robot.prepare import PYBULLET_MAX_JOINTS, UrdfPlan, prepare_urdf
+from harmony_cli.robot.sanitize import CONTINUOUS_LIMIT, MASSLESS_LINK_MASS
+
+BASE = ("base_x", "base_y", "base_yaw")
+ARMS = ("l_shoulder", "l_roll", "l_wrist", "r_shoulder", "r_roll", "r_wrist")
+
+
+def _inertial(mass: float) -> str:
+    return (
+        f'<inertial><origin xyz="0 0 0.05" rpy="0 0 0"/><mass value="{mass}"/>'
+        '<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>'
+    )
+
+
+def _joint(name, kind, parent, child, xyz="0 0 0.1", rpy="0 0 0", extra="") -> str:
+    limit = '<limit lower="-2" upper="2" effort="50" velocity="2"/>' if kind in ("revolute", "prismatic") else ""
+    if kind == "continuous":
+        limit = '<limit effort="50" velocity="2"/>'
+    axis = '<axis xyz="0 1 0"/>' if kind != "fixed" else ""
+    return (
+        f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+        f'<origin xyz="{xyz}" rpy="{rpy}"/>{axis}{limit}{extra}</joint>'
+    )
+
+
+def synthetic_urdf(path: Path, rack_links: int = 0) -> Path:
+    """A torso with two 3-joint arms (shoulder revolute, forearm roll continuous, wrist revolute), a parallel
+    gripper per hand (finger prismatic, the other finger mimicking it), a tool frame without <inertial>, a
+    transmission without <type>, a gazebo element; `rack_links` fixed links chained on the torso."""
+    parts = ['<robot name="synthetic">', f'<link name="torso">{_inertial(10)}</link>']
+    for side, y in (("l", 0.2), ("r", -0.2)):
+        names = [f"{side}_upper", f"{side}_fore", f"{side}_hand", f"{side}_finger_a", f"{side}_finger_b"]
+        parts += [f'<link name="{n}">{_inertial(1.0)}</link>' for n in names]
+        parts += [
+            _joint(f"{side}_shoulder", "revolute", "torso", names[0], xyz=f"0 {y} 0.5"),
+            _joint(f"{side}_roll", "continuous", names[0], names[1], rpy="0.3 0 0"),
+            _joint(f"{side}_wrist", "revolute", names[1], names[2]),
+            _joint(f"{side}_finger", "prismatic", names[2], names[3], xyz="0.02 0 0.05"),
+            _joint(
+                f"{side}_finger_mirror",
+                "prismatic",
+                names[2],
+                names[4],
+                xyz="-0.02 0 0.05",
+                extra=f'<mimic joint="{side}_finger" multiplier="-1" offset="0.01"/>',
+            ),
+            f'<link name="{side}_tool"/>',
+            _joint(f"{side}_tool_joint", "fixed", names[2], f"{side}_tool", xyz="0 0 0.12"),
+            f'<transmission name="{side}_shoulder_trans"><joint name="{side}_shoulder"/></transmission>',
+        ]
+    parent = "torso"
+    for i in range(rack_links):
+        parts += [f'<link name="rack_{i}">{_inertial(0.1)}</link>']
+        parts += [_joint(f"rack_{i}_joint", "fixed", parent, f"rack_{i}", xyz="0.01 0 0.01", rpy="0 0 0.1")]
+        parent = f"rack_{i}"
+    parts += ['<gazebo reference="torso"><material>Gazebo/Grey</material></gazebo>', "</robot>"]
+    path.write_text("\n".join(parts))
+    return path
+
+
+PLAN = UrdfPlan(BASE, active=ARMS, home={"l_finger": 0.5, "r_finger": 0.5}, keep=("l_tool", "r_tool"))
+FINGER = 0.5  # the finger joints are prismatic: home in metres
+
+
+@pytest.fixture
+def bullet():
+    client = BulletClient(pybullet.DIRECT)
+    yield client
+    client.disconnect()
+
+
+def _pin_frame(model, data, frame: str) -> np.ndarray:
+    return data.oMf[model.getFrameId(frame)].translation.copy()
+
+
+def _pin_config(model, values: dict[str, float]) -> np.ndarray:
+    q = pin.neutral(model)
+    for name, value in values.items():
+        joint = model.joints[model.getJointId(name)]
+        if joint.nq == 2:  # Pinocchio's continuous joint: (cos, sin)
+            q[joint.idx_q : joint.idx_q + 2] = np.cos(value), np.sin(value)
+        else:
+            q[joint.idx_q] = value
+    return q
+
+
+def test_optas_rejects_the_shipped_urdf_and_reads_the_prepared_one(tmp_path):
+    urdf = synthetic_urdf(tmp_path / "robot.urdf")
+    with pytest.raises(Exception, match="type"):
+        optas.RobotModel(urdf_filename=str(urdf), time_derivs=[0])
+    prepared = prepare_urdf(urdf, PLAN, tmp_path / "cache")
+    assert prepared.dropped == {"transmission": 2, "gazebo": 1}
+    model = optas.RobotModel(urdf_filename=str(prepared.path), time_derivs=[0])
+    assert model.actuated_joint_names == [*BASE, *ARMS]
+
+
+def test_continuous_joints_are_unbounded_in_the_mpc_model(tmp_path):
+    prepared = prepare_urdf(synthetic_urdf(tmp_path / "robot.urdf"), PLAN, tmp_path / "cache")
+    model = optas.RobotModel(urdf_filename=str(prepared.path), time_derivs=[0])
+    lower = dict(zip(model.actuated_joint_names, np.array(model.lower_actuated_joint_limits).ravel(), strict=True))
+    upper = dict(zip(model.actuated_joint_names, np.array(model.upper_actuated_joint_limits).ravel(), strict=True))
+    assert prepared.continuous == ("l_roll", "r_roll")
+    for joint in ("l_roll", "r_roll"):
+        assert (lower[joint], upper[joint]) == (-CONTINUOUS_LIMIT, CONTINUOUS_LIMIT)
+    assert (lower["l_shoulder"], upper["l_shoulder"]) == (-2.0, 2.0)
+
+
+def test_a_continuous_home_wraps_and_a_revolute_home_outside_its_limits_is_refused(tmp_path):
+    urdf = synthetic_urdf(tmp_path / "robot.urdf")
+    wrapped = prepare_urdf(urdf, UrdfPlan(BASE, active=ARMS, home={"l_roll": -186.0}), tmp_path / "cache")
+    assert wrapped.home["l_roll"] == pytest.approx(np.deg2rad(174.0))
+    with pytest.raises(ValueError, match=r"robot.home.l_shoulder: 120 deg is outside the joint's limits \[-114.6"):
+        prepare_urdf(urdf, UrdfPlan(BASE, active=ARMS, home={"l_shoulder": 120.0}), tmp_path / "cache")
+
+
+def test_links_without_inertia_weigh_the_documented_mass_in_pybullet_and_pinocchio(tmp_path, bullet):
+    urdf = synthetic_urdf(tmp_path / "robot.urdf")
+    shipped = bullet.loadURDF(str(urdf), useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
+    names = {bullet.getJointInfo(shipped, i)[12].decode(): i for i in range(bullet.getNumJoints(shipped))}
+    assert bullet.getDynamicsInfo(shipped, names["l_tool"])[0] == 1.0  # what PyBullet does without <inertial>
+    prepared = prepare_urdf(urdf, PLAN, tmp_path / "cache")
+    assert set(prepared.massless) >= {"l_tool", "r_tool"}
+    body = bullet.loadURDF(str(prepared.path), useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
+    names = {bullet.getJointInfo(body, i)[12].decode(): i for i in range(bullet.getNumJoints(body))}
+    assert bullet.getDynamicsInfo(body, names["l_tool"])[0] == pytest.approx(MASSLESS_LINK_MASS)
+    model = pin.buildModelFromUrdf(str(prepared.path))
+    tool = model.frames[model.getFrameId("l_tool")]
+    assert model.inertias[tool.parentJoint].mass == pytest.approx(1.0 + 2 * 1.0 + MASSLESS_LINK_MASS)
+
+
+def test_locked_joints_and_mimics_put_the_fingers_where_the_shipped_robot_has_them(tmp_path, bullet, rng):
+    """The finger (locked at 0.5 m) and its mimic (-1 x 0.5 + 0.01) in the prepared URDF (PyBullet) sit where
+    Pinocchio puts them in the shipped URDF with those joint values, at random arm configurations."""
+    urdf = synthetic_urdf(tmp_path / "robot.urdf")
+    prepared = prepare_urdf(urdf, PLAN, tmp_path / "cache")
+    assert prepared.locked == {
+        "l_finger": FINGER,
+        "r_finger": FINGER,
+        "l_finger_mirror": -0.49,
+        "r_finger_mirror": -0.49,
+    }
+    shipped = pin.buildModelFromUrdf(str(urdf))
+    data = shipped.createData()
+    body = bullet.loadURDF(str(prepared.path), useFixedBase=True)
+    joints = {bullet.getJointInfo(body, i)[1].decode(): i for i in range(bullet.getNumJoints(body))}
+    links = {bullet.getJointInfo(body, i)[12].decode(): i for i in range(bullet.getNumJoints(body))}
+    for q in rng.uniform(-1.5, 1.5, size=(5, len(ARMS))):
+        values = dict(zip(ARMS, q, strict=True)) | prepared.locked
+        pin.framesForwardKinematics(shipped, data, _pin_config(shipped, values))
+        for name, value in zip(ARMS, q, strict=True):
+            bullet.resetJointState(body, joints[name], value)
+        for link in ("l_finger_a", "l_finger_b", "r_finger_b", "r_tool"):
+            in_bullet = np.array(bullet.getLinkState(body, links[link], computeForwardKinematics=True)[4])
+            np.testing.assert_allclose(in_bullet, _pin_frame(shipped, data, link), atol=1e-7)
+
+
+def test_an_active_master_of_a_mimic_joint_is_refused_in_one_line(tmp_path):
+    urdf = synthetic_urdf(tmp_path / "robot.urdf")
+    with pytest.raises(ValueError) as info:
+        prepare_urdf(urdf, UrdfPlan(BASE), tmp_path / "cache")  # every movable joint active by default
+    message = str(info.value)
+    assert "\n" not in message and message.startswith("robot.active_joints: 'l_finger' is active")
+    assert "'l_finger_mirror' mimics it" in message
+    with pytest.raises(ValueError, match="robot.active_joints: 'l_finger_mirror' mimics 'l_finger'"):
+        prepare_urdf(urdf, UrdfPlan(BASE, active=(*ARMS, "l_finger_mirror")), tmp_path / "cache")
+
+
+def test_more_links_than_pybullet_takes_merge_keeping_mass_and_hand_frames(tmp_path, bullet, monkeypatch):
+    """Merged against the same robot prepared unmerged (Pinocchio reads both): same mass, centre of mass and hand
+    frames; only the merged one fits PyBullet."""
+    urdf = synthetic_urdf(tmp_path / "robot.urdf", rack_links=PYBULLET_MAX_JOINTS + 10)
+    prepared = prepare_urdf(urdf, PLAN, tmp_path / "cache")
+    assert len(prepared.merged) >= PYBULLET_MAX_JOINTS + 10
+    body = bullet.loadURDF(str(prepared.path), useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
+    assert bullet.getNumJoints(body) <= PYBULLET_MAX_JOINTS
+    monkeypatch.setattr(prepare_module, "PYBULLET_MAX_JOINTS", 10**6)
+    unmerged = prepare_urdf(urdf, PLAN, tmp_path / "cache")
+    assert unmerged.merged == () and unmerged.path != prepared.path
+    values = {"base_yaw": 0.3, "l_shoulder": 0.4, "l_roll": 1.0, "r_wrist": -0.7}
+    outcomes = []
+    for path in (unmerged.path, prepared.path):
+        model = pin.buildModelFromUrdf(str(path))
+        data, q = model.createData(), _pin_config(model, values)
+        pin.framesForwardKinematics(model, data, q)
+        frames = [_pin_frame(model, data, link) for link in ("l_tool", "r_tool")]
+        outcomes.append((sum(i.mass for i in model.inertias), pin.centerOfMass(model, data, q), frames))
+    (mass, com, frames), (merged_mass, merged_com, merged_frames) = outcomes
+    assert merged_mass == pytest.approx(mass, abs=1e-9)
+    np.testing.assert_allclose(merged_com, com, atol=1e-9)
+    np.testing.assert_allclose(merged_frames, frames, atol=1e-9)
+
+
+def test_pinocchio_gravity_torques_match_pybullet_inverse_dynamics(tmp_path, bullet):
+    from harmony_cli.robot.gravity import gravity_torques
+
+    prepared = prepare_urdf(synthetic_urdf(tmp_path / "robot.urdf"), PLAN, tmp_path / "cache")
+    names = (*BASE, *ARMS)
+    q = np.array([0.0, 0.0, 0.0, 0.3, 0.5, -0.4, -0.2, 1.0, 0.6])
+    torque, effort = gravity_torques(prepared.path, names, q)
+    body = bullet.loadURDF(str(prepared.path), useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
+    bullet.setGravity(0, 0, -9.81)
+    order = [bullet.getJointInfo(body, i)[1].decode() for i in range(bullet.getNumJoints(body))]
+    movable = [n for n in order if n in names]
+    in_bullet = bullet.calculateInverseDynamics(
+        body, [float(q[names.index(n)]) for n in movable], [0.0] * len(movable), [0.0] * len(movable)
+    )
+    np.testing.assert_allclose(torque, [in_bullet[movable.index(n)] for n in names], atol=1e-6)
+    np.testing.assert_allclose(effort[3:], 50.0)
+
+
+def test_optas_hand_frames_match_pinocchio_on_the_reduced_robot(tmp_path):
+    prepared = prepare_urdf(synthetic_urdf(tmp_path / "robot.urdf"), PLAN, tmp_path / "cache")
+    model = optas.RobotModel(urdf_filename=str(prepared.path), time_derivs=[0])
+    reduced = pin.buildModelFromUrdf(str(prepared.path))
+    data = reduced.createData()
+    q = np.linspace(-0.8, 0.9, model.ndof)
+    pin.framesForwardKinematics(reduced, data, _pin_config(reduced, dict(zip(model.actuated_joint_names, q))))
+    for link in ("l_tool", "r_tool"):
+        in_optas = np.array(casadi.DM(model.get_global_link_position(link, q))).ravel()
+        np.testing.assert_allclose(in_optas, _pin_frame(reduced, data, link), atol=1e-9)
+
+
+def test_a_misspelt_active_joint_gets_the_closest_names(tmp_path):
+    with pytest.raises(ValueError, match=r"'l_sholder' matches no movable joint of robot.urdf; closest.*l_shoulder"):
+        prepare_urdf(synthetic_urdf(tmp_path / "robot.urdf"), UrdfPlan(BASE, active=("l_sholder",)), tmp_path / "c")
+
+
+def test_prepared_copy_has_no_foreign_elements(tmp_path):
+    prepared = prepare_urdf(synthetic_urdf(tmp_path / "robot.urdf"), PLAN, tmp_path / "cache")
+    tags = {child.tag for child in ET.parse(prepared.path).getroot()}
+    assert tags <= {"link", "joint", "material"}
