@@ -131,3 +131,23 @@ def test_robots_lists_presets_and_show_prints_joints_frames_and_gravity():
     assert "gravity check (Pinocchio)" in shown.output
     wrong = runner.invoke(app, ["robots", "show", "pr3"])
     assert wrong.exit_code == 2 and "closest" in wrong.output
+
+
+def test_a_catalogue_robot_run_prints_only_its_summary_and_logs_the_rest(tmp_path):
+    """TIAGo dual (86 joints locked, 112 links merged, 219 foreign elements): the console gets the summary line
+    alone (--quiet: no progress bar); the parsers' and PyBullet's messages land in run.log."""
+    import subprocess
+    import sys
+
+    path = tmp_path / "tiago.yaml"
+    path.write_text("name: tiago\nrobot: {preset: tiago_dual}\nreference: {type: hold}\nsim: {duration: 0.1}\n")
+    harmony = Path(sys.executable).with_name("harmony")
+    out = tmp_path / "run"
+    done = subprocess.run(
+        [str(harmony), "run", str(path), "--out", str(out), "--quiet"], capture_output=True, text=True, check=False
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == "" and done.stdout.splitlines() == [done.stdout.strip()], done.stdout
+    assert done.stdout.startswith(f"{out}: completed, 108 decision variables")
+    log = (out / "run.log").read_text()
+    assert "urdf: locked joints: 86" in log and "pybullet: " in log

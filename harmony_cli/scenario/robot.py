@@ -66,7 +66,9 @@ class RobotSpec(Strict):
         "default: the joint whose child holds the end-effector frame (EVA: *ARM_TOOL_JOINT)",
     )
     pinned_joints: list[str] = Field([], description="held at home in every MPC (EVA: the head)")
-    chest_joints: list[str] = Field([], description="torso joints (regularised towards 0)")
+    chest_joints: list[str] = Field(
+        [], description="torso yaw joints, regularised towards 0 (EVA: CHEST_JOINT0; not a lift)"
+    )
     mirrored_joints: list[tuple[str, str]] = Field([], description="pairs regularised to (a + b)^2 -> 0")
     home: dict[str, float] = Field(
         {},
