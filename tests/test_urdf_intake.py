@@ -237,6 +237,17 @@ def test_optas_hand_frames_match_pinocchio_on_the_reduced_robot(tmp_path):
         np.testing.assert_allclose(in_optas, _pin_frame(reduced, data, link), atol=1e-9)
 
 
+def test_a_robot_of_exactly_128_joints_is_merged_below_pybullets_limit(tmp_path, bullet):
+    """PyBullet fails its state queries at 128 links (127 is the most it takes): one joint over is merged."""
+    plain = prepare_urdf(synthetic_urdf(tmp_path / "robot.urdf"), PLAN, tmp_path / "cache")
+    n_plain = len(ET.parse(plain.path).getroot().findall("joint"))
+    urdf = synthetic_urdf(tmp_path / "big.urdf", rack_links=128 - n_plain)
+    prepared = prepare_urdf(urdf, PLAN, tmp_path / "cache")
+    assert prepared.merged
+    body = bullet.loadURDF(str(prepared.path), useFixedBase=True)
+    assert len(bullet.getJointStates(body, list(range(bullet.getNumJoints(body))))) == bullet.getNumJoints(body)
+
+
 def test_a_misspelt_active_joint_gets_the_closest_names(tmp_path):
     with pytest.raises(ValueError, match=r"'l_sholder' matches no movable joint of robot.urdf; closest.*l_shoulder"):
         prepare_urdf(synthetic_urdf(tmp_path / "robot.urdf"), UrdfPlan(BASE, active=("l_sholder",)), tmp_path / "c")

@@ -37,7 +37,7 @@ if TYPE_CHECKING:
     from harmony_cli.scenario.robot import ToolSpec
 
 PACKAGE_SCHEME = "package://"
-PYBULLET_MAX_JOINTS = 128  # one multibody's links (= joints) PyBullet can report states of
+PYBULLET_MAX_JOINTS = 127  # state queries fail at >= 128 links (bullet3 MAX_DEGREE_OF_FREEDOM, SharedMemoryCommands.h)
 HOME_TOLERANCE = 1e-9
 
 
