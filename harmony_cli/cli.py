@@ -83,6 +83,7 @@ def compare(
 
     try:
         base = load_scenario(scenario, set)
+        _warn(robot_warnings(base, scenario.parent))
         for point in expand_grid(grid):
             load_scenario(scenario, list(set) + point)  # every grid point is valid before anything runs
     except ScenarioError as exc:

@@ -110,8 +110,27 @@ def test_a_misspelt_name_gets_the_closest_names_not_the_whole_list():
     assert "LINK_" not in suggestion
 
 
-def test_presets_include_the_catalogue():
-    assert {"eva", "twin_arm", "pr2", "tiago_dual", "baxter"} <= set(available_presets())
+@pytest.mark.parametrize(
+    ("preset", "ahead", "height", "active"),
+    [("pr2", 0.6, 0.9, 18), ("tiago_dual", 0.45, 0.9, 18), ("baxter", 0.7, 1.05, 17)],
+)
+def test_a_catalogue_preset_holds_its_pads_facing_where_its_file_says(tmp_path, preset, ahead, height, active):
+    """Built from the package's unedited URDF: the active joints the preset names, and at home both pads 0.34 m
+    apart, `ahead` in front of the base at `height`, their normals facing each other (the preset file's comment)."""
+    _, robot = _robot_of_preset(tmp_path, preset)
+    assert robot.n_dof == active
+    (left, left_r), (right, right_r) = ((p.ravel(), r) for p, r in robot.hand_poses_numeric(robot.home))
+    np.testing.assert_allclose([left[0], right[0], left[2], right[2]], [ahead, ahead, height, height], atol=0.01)
+    assert left[1] - right[1] == pytest.approx(0.34, abs=0.01)
+    np.testing.assert_allclose(left_r[:, 2], [0, -1, 0], atol=0.02)
+    np.testing.assert_allclose(right_r[:, 2], [0, 1, 0], atol=0.02)
+
+
+def _robot_of_preset(tmp_path: Path, preset: str):
+    path = tmp_path / f"{preset}.yaml"
+    path.write_text(f"name: x\nrobot: {{preset: {preset}}}\nreference: {{type: hold}}\n")
+    scenario = load_scenario(path)
+    return scenario, robot_of(scenario, tmp_path)
 
 
 def test_a_scenario_without_a_robot_section_is_eva_from_any_folder(tmp_path):

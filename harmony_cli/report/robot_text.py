@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from harmony_cli.robot.gravity import gravity_torques
 from harmony_cli.robot.model import Robot
 
 
 def robot_lines(name: str, robot: Robot) -> list[str]:
-    torque, effort = gravity_torques(robot.urdf, robot.joint_names, robot.home)
+    torque, effort = robot.home_gravity, robot.effort
+    assert torque is not None and effort is not None, "a robot from load_robot"
     lines = [f"{name}: {robot.n_dof} active joints (3 base), prepared URDF {robot.urdf}"]
     lines.append(
         f"  {'joint':<28} {'type':<11} {'lower':>9} {'upper':>9} {'velocity':>9} {'home':>9}  gravity / effort"

@@ -26,13 +26,3 @@ def gravity_torques(urdf: Path, joint_names: tuple[str, ...], q: np.ndarray) -> 
     torque = np.array([tau[index[name].idx_v] for name in joint_names])
     effort = np.array([model.effortLimit[index[name].idx_v] for name in joint_names])
     return torque, effort
-
-
-def overloaded(urdf: Path, joint_names: tuple[str, ...], q: np.ndarray, skip: tuple[int, ...] = ()) -> list[str]:
-    """'joint (|tau| > effort N m)' for every joint but `skip` whose gravity torque at `q` exceeds its effort."""
-    torque, effort = gravity_torques(urdf, joint_names, q)
-    return [
-        f"{joint_names[i]} ({abs(torque[i]):.3g} > {effort[i]:.3g})"
-        for i in range(len(joint_names))
-        if i not in skip and abs(torque[i]) > effort[i]
-    ]

@@ -13,7 +13,7 @@ import optas
 from harmony_cli.cache import CACHE_DIR
 from harmony_cli.capture import captured_output
 from harmony_cli.names import closest
-from harmony_cli.robot.gravity import overloaded
+from harmony_cli.robot.gravity import gravity_torques
 from harmony_cli.robot.prepare import UrdfPlan, prepare_urdf
 from harmony_cli.robot.urdf import joint_types, wrist_sensor_joints
 
@@ -40,7 +40,19 @@ class Robot:
     continuous: tuple[int, ...] = ()  # indices of joints the URDF declares continuous (unbounded)
     prismatic: tuple[int, ...] = ()  # indices of prismatic joints (base x, y included): values in metres
     notes: tuple[str, ...] = ()  # what preparing the URDF changed and what its parser said, for run.log
-    overloaded: tuple[str, ...] = ()  # joints whose URDF effort cannot hold the home pose against gravity
+    home_gravity: np.ndarray | None = None  # per joint, the torque [N m | N] holding home against gravity (Pinocchio)
+    effort: np.ndarray | None = None  # per joint, the URDF's effort limit
+
+    @property
+    def overloaded(self) -> tuple[str, ...]:
+        """'joint (|tau| > effort)' for every arm joint whose URDF effort cannot hold home against gravity."""
+        if self.home_gravity is None or self.effort is None:
+            return ()
+        return tuple(
+            f"{self.joint_names[i]} ({abs(self.home_gravity[i]):.3g} > {self.effort[i]:.3g})"
+            for i in range(self.n_dof)
+            if i not in self.base_joints and abs(self.home_gravity[i]) > self.effort[i]
+        )
 
     @property
     def n_dof(self) -> int:
@@ -95,7 +107,7 @@ def load_robot(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) 
         for joint in joints:
             if joint not in names:
                 raise ValueError(f"robot.{field}: {joint!r} is not an active joint; {closest(joint, names)}")
-    base = tuple(names.index(j) for j in spec.base_joints)
+    torque, effort = gravity_torques(prepared.path, names, home)
     return Robot(
         urdf=prepared.path,
         model=model,
@@ -107,10 +119,11 @@ def load_robot(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) 
         hand_names=tuple(spec.end_effectors.keys()),
         wrist_sensors=tuple(wrist_sensor_joints(spec, prepared.path).values()),
         home=home,
-        base_joints=base,
+        base_joints=tuple(names.index(j) for j in spec.base_joints),
         pinned_joints=tuple(names.index(j) for j in spec.pinned_joints),
         continuous=tuple(names.index(j) for j in prepared.continuous),
         prismatic=tuple(i for i, kind in enumerate(map(joint_types(prepared.path).get, names)) if kind == "prismatic"),
         notes=tuple(prepared.notes() + [f"urdf parser: {line}" for line in parser_output]),
-        overloaded=tuple(overloaded(prepared.path, names, home, skip=base)),
+        home_gravity=torque,
+        effort=effort,
     )
