@@ -41,11 +41,15 @@ bench: $(STAMP)
 	$(HARMONY) bench --scenario $(TABLE1) --out results/bench/bench.json
 
 EXPERIMENTS := pick_and_carry static_obstacles narrow_passage dynamic_obstacle
+ROBOTS := pr2 tiago_dual baxter
+comma := ,
+space := $(subst ,, )
 
 # Table 1 (IPOPT to convergence) + the extended table with real-time iteration, one run at a time; then the
 # two-stage experiments (each with a video) and their results table; dynamic_obstacle again with the obstacle
-# parked (static), the two side by side (dynamic_obstacle.md) and their paths overlaid; the push-recovery
-# ablation (admittance on / off) and its push plots.
+# parked (static), the two side by side (dynamic_obstacle.md) and their paths overlaid; the catalogue robots'
+# S-shape (robots_s_shape.md) and box carry (one row each in the experiments table, same scene file for all);
+# the push-recovery ablation (admittance on / off) and its push plots.
 reproduce-paper: $(STAMP)
 	$(HARMONY) compare $(TABLE1) --grid solver.name=ipopt,rti --grid mpc.transcription=traditional,bezier \
 		--grid mpc.knots=6,26 --jobs 1 --out results/paper --name table1 --main-solver ipopt
@@ -53,7 +57,13 @@ reproduce-paper: $(STAMP)
 		$(HARMONY) run scenarios/paper/$$e.yaml --out results/paper/runs/$$e --video || exit 1; done
 	$(HARMONY) run scenarios/paper/dynamic_obstacle.yaml --set world.obstacles.1.motion=null \
 		--set name=dynamic_obstacle_static --out results/paper/runs/dynamic_obstacle_static
-	$(HARMONY) experiments $(addprefix results/paper/runs/,$(EXPERIMENTS)) --out results/paper
+	$(HARMONY) compare scenarios/robots/s_shape.yaml --grid robot.preset=$(subst $(space),$(comma),$(ROBOTS)) \
+		--jobs 1 --out results/paper/robots --name robots_s_shape
+	cp results/paper/robots/robots_s_shape.md results/paper/robots/robots_s_shape.csv results/paper/
+	for r in $(ROBOTS); do $(HARMONY) run scenarios/robots/box_carry.yaml --set robot.preset=$$r \
+		--set name=$${r}_box_carry --out results/paper/runs/$${r}_box_carry --video || exit 1; done
+	$(HARMONY) experiments $(addprefix results/paper/runs/,$(EXPERIMENTS) $(addsuffix _box_carry,$(ROBOTS))) \
+		--out results/paper
 	$(HARMONY) experiments $(addprefix results/paper/runs/,dynamic_obstacle dynamic_obstacle_static) \
 		--out results/paper --name dynamic_obstacle
 	$(HARMONY) paths $(addprefix results/paper/runs/,dynamic_obstacle dynamic_obstacle_static) \
@@ -67,4 +77,4 @@ reproduce-paper: $(STAMP)
 	$(VENV)/bin/python tools/render_docs.py
 
 clean:
-	rm -rf results/runs results/compare results/bench results/paper/runs results/paper/push_recovery .pytest_cache .hypothesis
+	rm -rf results/runs results/compare results/bench results/paper/runs results/paper/push_recovery results/paper/robots .pytest_cache .hypothesis

@@ -32,7 +32,7 @@ def robot_lines(name: str, robot: Robot) -> list[str]:
         lines.append(f"  hand {hand}: frame {link}, wrist sensor {sensor}")
     lines += [f"  {note}" for note in robot.notes if not note.startswith("urdf parser")]
     verdict = (
-        f"cannot hold home with the URDF's efforts at {', '.join(robot.overloaded)} (set sim.actuators: ideal)"
+        f"cannot hold home with the URDF's efforts at {', '.join(robot.overloaded)} (set robot.actuators: ideal)"
         if robot.overloaded
         else "holds home within the URDF's efforts"
     )

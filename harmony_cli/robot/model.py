@@ -42,6 +42,7 @@ class Robot:
     notes: tuple[str, ...] = ()  # what preparing the URDF changed and what its parser said, for run.log
     home_gravity: np.ndarray | None = None  # per joint, the torque [N m | N] holding home against gravity (Pinocchio)
     effort: np.ndarray | None = None  # per joint, the URDF's effort limit
+    actuators: str = "urdf"  # simulated motors: the URDF's efforts (urdf) or strong ones (ideal)
 
     @property
     def overloaded(self) -> tuple[str, ...]:
@@ -126,4 +127,5 @@ def load_robot(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) 
         notes=tuple(prepared.notes() + [f"urdf parser: {line}" for line in parser_output]),
         home_gravity=torque,
         effort=effort,
+        actuators=spec.actuators,
     )

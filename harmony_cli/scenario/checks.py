@@ -87,10 +87,10 @@ def _robot(spec_json: str, scenario_dir: Path, keep: tuple[str, ...]) -> Robot:
 def robot_warnings(scenario: Scenario, scenario_dir: Path) -> list[str]:
     """What a run of this scenario should be warned about its robot (one line each)."""
     robot = robot_of(scenario, scenario_dir)
-    if robot.overloaded and scenario.sim.actuators == "urdf":
+    if robot.overloaded and robot.actuators == "urdf":
         return [
             f"robot: at home, gravity needs more than the URDF's effort [N m | N] at {', '.join(robot.overloaded)}: "
-            "the simulated robot will sag; set sim.actuators: ideal (strong motors) or choose another home"
+            "the simulated robot will sag; set robot.actuators: ideal (strong motors) or choose another home"
         ]
     return []
 

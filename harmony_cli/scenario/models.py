@@ -127,11 +127,6 @@ class SimSpec(Strict):
     duration: PositiveFloat = Field(26.0, description="closed-loop run length [s]")
     position_gain: float = Field(0.5, gt=0, le=1, description="PyBullet position-control gain of chest/arms/head")
     velocity_gain: float = Field(1.0, gt=0, description="PyBullet velocity gain of chest/arms/head")
-    actuators: Literal["urdf", "ideal"] = Field(
-        "urdf",
-        description="joint motors' force limits: the URDF's efforts, or ideal (strong: IDEAL_EFFORT) for a "
-        "robot whose arms the URDF's efforts cannot hold (e.g. gravity-balanced arms such as PR2's)",
-    )
     pad_stiffness: PositiveFloat | None = Field(
         None, description="contact stiffness of the tools below the wrist sensors [N/m] (a rubber pad); null: rigid"
     )

@@ -4,7 +4,7 @@ pose, placement and base footprint, each field defaulting to the robot preset's 
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
@@ -82,6 +82,11 @@ class RobotSpec(Strict):
         [],
         description="circles [x, y, radius] in the base frame covering the base, kept clear of obstacles and "
         "table legs (EVA: its 1.007 x 0.707 m box, 2 x 5 circles); required with a world",
+    )
+    actuators: Literal["urdf", "ideal"] = Field(
+        "urdf",
+        description="simulated motors' force limits: the URDF's efforts, or ideal (strong) for a robot whose "
+        "arms the URDF's efforts cannot hold (PR2: its shoulders are balanced by springs the URDF does not model)",
     )
     base_margin: float = Field(0.03, ge=0, description="clearance the footprint keeps from table legs [m]")
 

@@ -38,7 +38,7 @@ class Truth:
     clearance_box_m: dict[str, float]  # per obstacle, the box's
 
 
-IDEAL_EFFORT = 1e4  # [N m | N] motor force limit of sim.actuators: ideal
+IDEAL_EFFORT = 1e4  # [N m | N] motor force limit of robot.actuators: ideal
 
 
 class Simulation:
@@ -65,7 +65,7 @@ class Simulation:
                 by_name[info[12].decode()] = i  # link index == index of its parent joint
         self.joints = [by_name[j] for j in robot.joint_names]
         self.effort = np.array([self.client.getJointInfo(self.body, j)[10] for j in self.joints])
-        if sim_spec.actuators == "ideal":
+        if robot.actuators == "ideal":
             self.effort[[i for i in range(robot.n_dof) if i not in robot.base_joints]] = IDEAL_EFFORT
         self.hand_links = [by_name[link] for link in robot.end_effectors]
         self.base = list(robot.base_joints)
