@@ -21,10 +21,11 @@ def run_lines(run_dir: Path, summary: dict) -> list[str]:
     ]
     if "task" in summary:
         task, loop = summary["task"], summary["task"]["loop_time_ms"]
-        clear = min((v for c in task["min_clearance_m"].values() for v in c.values()), default=float("inf"))
+        clear = min((v for c in task["min_clearance_m"].values() for v in c.values()), default=None)
         lines.append(
-            f"task: success {task.get('success')}, box goal error {task.get('box_goal_error_m')}, dropped "
-            f"{task.get('box_dropped')}, min clearance {clear:.3f} m, loop median {loop['median']:.2f} / "
+            f"task: success {task.get('success')}, box goal error {fmt(task.get('box_goal_error_m'), 'cm', 100)}, "
+            f"dropped {task.get('box_dropped')}, min clearance {fmt(clear, 'm', missing='- (no obstacle)', digits=3)}"
+            f", loop median {loop['median']:.2f} / "
             f"p95 {loop['p95']:.2f} / max {loop['max']:.2f} ms, planner failures {task['planner_failures']}"
         )
         for name, c in task.get("min_clearance_moving_m", {}).items():
