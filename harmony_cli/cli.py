@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
+import click
 import typer
 from pydantic import ValidationError
 from rich.console import Console
+from rich.text import Text
 
 from harmony_cli.scenario import Scenario, ScenarioError, load_scenario, robot_warnings
 
@@ -21,14 +24,56 @@ err = Console(stderr=True)
 SET_HELP = "Override a scenario field, e.g. --set mpc.knots=6 (repeatable)."
 
 
+def literal(text: str) -> str:
+    """User-provided text as it can be shown on one terminal line: control characters (escape sequences, line
+    breaks) escaped; rich markup is never interpreted (see `_say`)."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
+
+
+def _say(label: str, style: str, message: str) -> None:
+    err.print(Text.assemble((label, style), " ", literal(message)), highlight=False, soft_wrap=True)
+
+
 def _fail(message: str) -> None:
-    err.print(f"[red]error:[/red] {message}", highlight=False, soft_wrap=True)
+    _say("error:", "red", message)
     raise typer.Exit(2)
 
 
 def _warn(lines: list[str]) -> None:
     for line in lines:
-        err.print(f"[yellow]warning:[/yellow] {line}", highlight=False, soft_wrap=True)
+        _say("warning:", "yellow", line)
+
+
+def _click_errors() -> tuple[tuple[type[Exception], ...], tuple[type[BaseException], ...]]:
+    """(usage errors, aborts) of click and of the click typer vendors (typer >= 0.29 raises its own)."""
+    errors: list[type[Exception]] = [click.ClickException]
+    aborts: list[type[BaseException]] = [click.Abort]
+    try:
+        from typer._click import exceptions as vendored
+
+        errors.append(vendored.ClickException)
+        aborts.append(getattr(vendored, "Abort"))  # noqa: B009 - absent from its stubs
+    except (ImportError, AttributeError):
+        pass
+    return tuple(errors), tuple(aborts)
+
+
+def main() -> None:
+    """The `harmony` entry point: usage errors (unknown option, missing argument, bad value) as one line."""
+    errors, aborts = _click_errors()
+    try:
+        code = app(standalone_mode=False)
+    except errors as exc:
+        ctx = getattr(exc, "ctx", None)
+        if ctx is not None and type(exc).__name__ == "NoArgsIsHelpError":  # `harmony` alone: its help
+            typer.echo(ctx.get_help())
+            sys.exit(0)
+        hint = f" (see `{ctx.command_path} --help`)" if ctx is not None else ""
+        _say("error:", "red", getattr(exc, "format_message", exc.__str__)() + hint)
+        sys.exit(getattr(exc, "exit_code", 2))
+    except aborts:  # Ctrl-C outside a run
+        sys.exit(130)
+    sys.exit(code if isinstance(code, int) else 0)
 
 
 @app.command()
@@ -47,6 +92,7 @@ def run(
     ),
 ):
     """Run one scenario closed loop in PyBullet and write a run directory."""
+    from harmony_cli.experiment.interrupts import RunInterrupted
     from harmony_cli.experiment.pipeline import RunFailed
     from harmony_cli.experiment.run import run_scenario
     from harmony_cli.mpc.registry import SolverUnavailable
@@ -61,8 +107,11 @@ def run(
     except (ScenarioError, SolverUnavailable) as exc:
         _fail(str(exc))
     except RunFailed as exc:
-        err.print(f"[red]run failed:[/red] {exc}", highlight=False, soft_wrap=True)
+        _say("run failed:", "red", str(exc))
         raise typer.Exit(1) from None
+    except RunInterrupted as exc:  # the run wrote its results; say where they are
+        _say("interrupted:", "yellow", f"{exc.signal_name}; the steps so far, summary and plots are in {exc.run_dir}")
+        raise typer.Exit(exc.exit_code) from None
     for line in run_lines(run_dir, json.loads((run_dir / "summary.json").read_text())):
         typer.echo(line)
 
@@ -78,7 +127,7 @@ def compare(
     main_solver: str | None = typer.Option(None, help="Solver of the main table (default: first)"),
 ):
     """Run an ablation grid and write Table-1 style tables (md, csv, tex) and Fig. 4 plots."""
-    from harmony_cli.experiment.sweep import expand_grid, run_grid
+    from harmony_cli.experiment.sweep import expand_grid, failed_runs, run_grid
     from harmony_cli.report.tables import compare_report
 
     try:
@@ -93,22 +142,30 @@ def compare(
     keys = [g.split("=", 1)[0] for g in grid]
     for path in compare_report(dirs, out, name, main_solver, keys):
         typer.echo(path)
+    failed = failed_runs(dirs)
+    if failed:
+        _say("failed:", "red", f"{len(failed)} of {len(dirs)} grid runs: {'; '.join(failed)}")
+        raise typer.Exit(1)
 
 
 @app.command()
-def validate(files: list[Path]):
-    """Validate scenario files; one line per bad file, exit code 2 if any is bad."""
-    bad = 0
-    for f in files:
+def validate(files: list[Path], set: list[str] = typer.Option([], "--set", help=SET_HELP)):
+    """Validate scenario files (with the overrides `run` would get); one line per bad file, exit code 2 if any is
+    bad."""
+    bad = broken = 0
+    for f in files:  # every file reported, whatever the others do
         try:
-            loaded = load_scenario(f)
-            typer.echo(f"{f}: ok")
+            loaded = load_scenario(f, set)
+            typer.echo(literal(f"{f}: ok"))
             _warn(robot_warnings(loaded, f.parent))
         except ScenarioError as exc:
-            err.print(f"[red]error:[/red] {exc}", highlight=False, soft_wrap=True)
+            _say("error:", "red", str(exc))
             bad += 1
-    if bad:
-        raise typer.Exit(2)
+        except Exception as exc:  # noqa: BLE001 - a bug of harmony's, not the file's: say so and go on
+            _say("internal error:", "red", f"{f}: {type(exc).__name__}: {exc} (please report this)")
+            broken += 1
+    if bad or broken:
+        raise typer.Exit(2 if bad else 1)
 
 
 robots_app = typer.Typer(
@@ -219,3 +276,16 @@ def bench(
             run_loop_bench(loop, out.with_name("loop.json") if out else None)
     except (ScenarioError, SolverUnavailable) as exc:
         _fail(str(exc))
+
+
+@app.command()
+def summarise(run_dir: Path):
+    """Rebuild a run directory's steps.csv, summary.json and plots from its steps.jsonl (a run killed hard)."""
+    from harmony_cli.experiment.rebuild import rebuild_run_dir
+
+    try:
+        summary = rebuild_run_dir(run_dir)
+    except (ScenarioError, OSError, ValueError) as exc:
+        _fail(str(exc))
+    steps = summary.get("steps", 0)
+    typer.echo(literal(f"{run_dir}: {summary['status']}, {steps} steps; steps.csv, summary.json and plots rebuilt"))

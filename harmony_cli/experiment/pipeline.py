@@ -1,6 +1,6 @@
 """One closed-loop run of a validated scenario, in steps: build (robot, MPCs, simulation), simulate, summarise,
-plot. Whatever happens, the run directory keeps steps.csv, summary.json (status, and why it failed), meta.json
-and run.log."""
+plot. Whatever happens, the run directory keeps steps.csv, summary.json (status, and why it failed or was
+interrupted), meta.json and run.log; steps.jsonl streams the steps during the run, for a run killed hard."""
 
 from __future__ import annotations
 
@@ -14,8 +14,10 @@ from typing import IO
 import pandas as pd
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
+from harmony_cli.experiment.interrupts import RunInterrupted, interrupted_summary, signals_end_the_run
 from harmony_cli.experiment.loop import Watch, run_loop
 from harmony_cli.experiment.run_dir import machine_meta
+from harmony_cli.experiment.stream import STREAM, StepStream
 from harmony_cli.experiment.task_watch import TaskWatch
 from harmony_cli.mpc.wholebody import WholeBodyMPC
 from harmony_cli.report.metrics import displacement_from_twin
@@ -92,13 +94,21 @@ def solver_paths(built: Built) -> dict[str, str]:
 
 
 def simulate(
-    built: Built, scenario: Scenario, rows: list[dict], log: IO[str], recorder: VideoRecorder | None, progress: bool
+    built: Built,
+    scenario: Scenario,
+    rows: list[dict],
+    stream: StepStream,
+    log: IO[str],
+    recorder: VideoRecorder | None,
+    progress: bool,
 ) -> float:
-    """The closed loop, every step's record appended to `rows` as it exists; returns the wall time [s]."""
+    """The closed loop, every step's record appended to `rows` and streamed to steps.jsonl as it exists; returns
+    the wall time [s]."""
     every = frame_every(scenario.sim.control_dt, VIDEO_FPS)
 
     def record(row: dict) -> None:
         rows.append(row)
+        stream.add(row)
         if not row["success"]:
             log.write(f"t={row['t']:.2f}s: solve failed ({row['status']}); held the last good plan\n")
             log.flush()
@@ -190,34 +200,44 @@ def execute(
     summary: dict = {"name": scenario.name, "status": "running"} | ({"push_free_twin": twin_info} if twin_info else {})
     rows: list[dict] = []
     recorder = None
-    log = (out / "run.log").open("w")
-    try:
-        built = build(scenario, scenario_dir)
-        summary |= describe(scenario, built)
-        meta["solver_paths"] = solver_paths(built)
-        notes = robot_warnings(scenario, scenario_dir) + list(built.robot.notes) + built.sim.notes
-        log.write("".join(f"{line}\n" for line in notes))
-        log.write(
-            f"built whole-body MPC: {built.mpc.problem.n_vars} decision variables in "
-            f"{built.mpc.build_time:.2f} s\n" + "".join(f"{k}: {v}\n" for k, v in meta["solver_paths"].items())
-        )
-        recorder = _recorder(built, video)
-        summary["wall_time_s"] = simulate(built, scenario, rows, log, recorder, progress)
-        built.sim.close()
-        summary["status"] = "completed"
-    except BaseException as exc:  # noqa: BLE001 - record why (interrupts too), then report
-        reason = f"{type(exc).__name__}: {str(exc).strip().splitlines()[-1] if str(exc).strip() else ''}"
-        summary |= {"status": "failed", "error": reason}
-        log.write(traceback.format_exc())
-        if not isinstance(exc, Exception):
+    log, stream = (out / "run.log").open("w"), StepStream(out / STREAM)
+    with signals_end_the_run() as guard:
+        try:
+            built = build(scenario, scenario_dir)
+            summary |= describe(scenario, built)
+            meta["solver_paths"] = solver_paths(built)
+            (out / "meta.json").write_text(json.dumps(meta, indent=2))  # now too: `harmony summarise` after a kill
+            notes = robot_warnings(scenario, scenario_dir) + list(built.robot.notes) + built.sim.notes
+            log.write("".join(f"{line}\n" for line in notes))
+            log.write(
+                f"built whole-body MPC: {built.mpc.problem.n_vars} decision variables in "
+                f"{built.mpc.build_time:.2f} s\n" + "".join(f"{k}: {v}\n" for k, v in meta["solver_paths"].items())
+            )
+            log.flush()
+            recorder = _recorder(built, video)
+            summary["wall_time_s"] = simulate(built, scenario, rows, stream, log, recorder, progress)
+            built.sim.close()
+            summary["status"] = "completed"
+        except RunInterrupted as exc:  # a signal: the steps so far are results, not a failure
+            summary |= interrupted_summary(exc, rows)
+            log.write(f"{summary['reason']}\n")
+            exc.run_dir = out
             raise
-        raise RunFailed(out, reason) from exc
-    finally:
-        if recorder:  # a run that fails part-way keeps its video up to there
-            summary["video"] = str(recorder.close())
-        steps = write_results(out, scenario, scenario_dir, rows, summary, meta, twin)
-        log.write(f"status: {summary['status']}\n")
-        log.close()
-        if len(steps):
-            plot_run_dir(out, steps, scenario, summary)
+        except BaseException as exc:  # noqa: BLE001 - record why, then report
+            reason = f"{type(exc).__name__}: {str(exc).strip().splitlines()[-1] if str(exc).strip() else ''}"
+            summary |= {"status": "failed", "error": reason}
+            log.write(traceback.format_exc())
+            if not isinstance(exc, Exception):
+                raise
+            raise RunFailed(out, reason) from exc
+        finally:
+            guard.hold()  # a second signal must not cut the results short
+            stream.close()
+            if recorder:  # a run that fails part-way keeps its video up to there
+                summary["video"] = str(recorder.close())
+            steps = write_results(out, scenario, scenario_dir, rows, summary, meta, twin)
+            log.write(f"status: {summary['status']}\n")
+            log.close()
+            if len(steps):
+                plot_run_dir(out, steps, scenario, summary)
     return out

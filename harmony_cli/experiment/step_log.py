@@ -3,6 +3,8 @@ per hand, forces, joints and commands, and the simulator's ground truth."""
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from harmony_cli.maths.rotations import rotation_error_deg
@@ -29,6 +31,7 @@ def step_record(
     row = {
         "step": step,
         "t": t,
+        "wall_clock_s": time.time(),  # Unix time of this record: what a signal or kill cut off is judged by it
         "solve_ms": 1e3 * result.solve_time,
         "build_ms": 1e3 * result.build_time,
         "loop_ms": loop_ms,

@@ -7,6 +7,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 from rich.progress import Progress
+from rich.text import Text
 
 from harmony_cli.experiment.run import run_scenario
 from harmony_cli.scenario import ScenarioError, apply_overrides
@@ -44,13 +45,28 @@ def run_grid(path: str | Path, axes: list[str], base_overrides: list[str], out: 
                 try:
                     _run_quiet(p, o, d, 1)
                 except Exception as exc:  # noqa: BLE001 - the run directory holds the status and log
-                    bar.console.print(f"[red]{d.name} failed: {exc}")
+                    bar.console.print(Text(f"{d.name} failed: {exc}", style="red"))
                 bar.advance(task)
         else:
             with ProcessPoolExecutor(max_workers=jobs) as pool:
                 futures = {pool.submit(_run_quiet, p, o, d, jobs): d for p, o, d in jobs_list}
                 for future in as_completed(futures):
                     if future.exception():
-                        bar.console.print(f"[red]{futures[future].name} failed: {future.exception()}")
+                        bar.console.print(Text(f"{futures[future].name} failed: {future.exception()}", style="red"))
                     bar.advance(task)
     return dirs
+
+
+def failed_runs(dirs: list[Path]) -> list[str]:
+    """'label (status: reason)' for every grid run that did not complete."""
+    import json
+
+    failed = []
+    for d in dirs:
+        try:
+            summary = json.loads((d / "summary.json").read_text())
+        except (OSError, ValueError):
+            summary = {"status": "no summary.json"}
+        if summary.get("status") != "completed":
+            failed.append(f"{d.name} ({summary.get('status')}: {summary.get('error', '')})")
+    return failed

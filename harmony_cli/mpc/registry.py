@@ -82,3 +82,29 @@ def make_solver(problem: Problem, spec: SolverSpec) -> Solver:
         return NlpSolver(problem, spec.name, dict(spec.options), spec.hessian)
     except SolverUnavailable as exc:
         return SymbolicNlpSolver(problem, spec.name, dict(spec.options), reason=str(exc))
+
+
+def options_problem(name: str, options: dict) -> str | None:
+    """What is wrong with `solver.options` for solver `name` (None: nothing), found the way a run would find it:
+    CasADi builds the plugin on a one-variable problem with them (unknown options, wrong types, an unknown
+    IPOPT option). Harmony's own modes take no options (their fields are max_iter, tol, qp)."""
+    import re
+
+    import casadi as cs
+
+    from harmony_cli.capture import captured_output
+
+    if not options:
+        return None
+    if name in HARMONY_SOLVERS:
+        return f"{name} takes no options (its settings are solver.max_iter, solver.tol, solver.qp)"
+    x = cs.MX.sym("x")
+    try:
+        with captured_output():
+            cs.nlpsol("options_check", name, {"x": x, "f": x * x}, {"print_time": False} | options)
+    except Exception as exc:  # noqa: BLE001 - CasADi raises RuntimeError (or TypeError for odd values)
+        lines = [re.sub(r"^.*\.cpp:\d+: ", "", line).strip() for line in str(exc).splitlines()]
+        guesses = re.findall(r'^> "([^"]+)"', str(exc), flags=re.M)
+        said = [s for s in lines if s and not s.startswith(("Error calling", "Use print_options", "Did you", ">"))]
+        return " ".join(said) + (f"; did you mean one of: {', '.join(guesses)}" if guesses else "")
+    return None

@@ -40,6 +40,12 @@ def ensure_base_joints(
             "give all three virtual base joints or none"
         )
     root_link = root_link_of(robot, urdf)
+    own = planar_base(robot, root_link)
+    if own:
+        raise ValueError(
+            f"robot.base_joints: {list(base_joints)} are not joints of {urdf.name}, which has its own planar base "
+            f"{own}: name those (robot.base_joints: [{', '.join(own)}]); a second base would be added on top"
+        )
     link_names = {link.get("name") for link in robot.findall("link")}
     new_links = ("world_origin", "base_px", "base_py", "base_mount")
     prefix = next((p for p in LINK_PREFIXES if not link_names & {p + name for name in new_links}), None)
@@ -67,6 +73,27 @@ def root_link_of(robot: ET.Element, urdf: Path) -> str:
     if len(roots) != 1:
         raise ValueError(f"{urdf}: expected one root link, found {roots}")
     return roots[0]
+
+
+def planar_base(robot: ET.Element, root_link: str) -> list[str]:
+    """The URDF's own virtual planar base, if it has one: the first three movable joints below the root along an
+    unbranched chain are prismatic, prismatic, revolute (or continuous); else []."""
+    below: dict[str, list[ET.Element]] = {}
+    for joint in robot.findall("joint"):
+        parent = joint.find("parent")
+        below.setdefault(parent.get("link", "") if parent is not None else "", []).append(joint)
+    movable: list[ET.Element] = []
+    link = root_link
+    while len(movable) < 3 and len(below.get(link, [])) == 1:
+        joint = below[link][0]
+        if joint.get("type") != "fixed":
+            movable.append(joint)
+        child = joint.find("child")
+        link = child.get("link", "") if child is not None else ""
+    types = [j.get("type") for j in movable]
+    if len(types) == 3 and types[:2] == ["prismatic", "prismatic"] and types[2] in ("revolute", "continuous"):
+        return [str(j.get("name")) for j in movable]
+    return []
 
 
 def _tiny_link(name: str) -> ET.Element:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import xml.etree.ElementTree as ET
 from functools import cache
 from pathlib import Path
@@ -10,21 +11,52 @@ from typing import TYPE_CHECKING
 from harmony_cli.names import closest
 from harmony_cli.robot.tools import tool_link
 from harmony_cli.robot.urdf import joints_and_links
-from harmony_cli.scenario.errors import ScenarioError
+from harmony_cli.scenario.errors import ScenarioError, brief
 from harmony_cli.scenario.models import Scenario
 from harmony_cli.scenario.robot import RobotSpec
+from harmony_cli.scenario.source import read_text
 from harmony_cli.scenario.task import RelativeTarget
 
 if TYPE_CHECKING:
     from harmony_cli.robot.model import Robot
 
 
+MAX_URDF_BYTES = 20 << 20  # the largest URDFs of robot packages are ~1 MB; meshes are separate files
+
+
+def check_urdf(path: Path, urdf: Path) -> None:
+    """The URDF is a readable XML file (expat >= 2.4 bounds entity expansion), a <robot>, and every joint joins
+    links it defines."""
+    try:
+        text = read_text(urdf, "URDF", MAX_URDF_BYTES)
+        root = ET.fromstring(text)
+    except ScenarioError as err:
+        raise ScenarioError(f"{path}: robot.urdf: {err}") from None
+    except ET.ParseError as err:
+        raise ScenarioError(f"{path}: robot.urdf: {urdf.name} is not XML ({err})") from None
+    if root.tag != "robot":
+        raise ScenarioError(
+            f"{path}: robot.urdf: {urdf.name} is not a URDF: its root element is <{root.tag}>, not <robot>"
+        )
+    links = {link.get("name") for link in root.findall("link")}
+    for joint in root.findall("joint"):
+        for end in ("parent", "child"):
+            element = joint.find(end)
+            link = None if element is None else element.get("link")
+            if link not in links:
+                raise ScenarioError(
+                    f"{path}: robot.urdf: {urdf.name}: joint {joint.get('name')!r} names {end} link {link!r}, "
+                    f"which it does not define; {closest(str(link), {str(n) for n in links})}"
+                )
+
+
 def check_robot(path: Path, scenario: Scenario) -> None:
     """Names the robot section gives exist in the URDF (the three closest suggested when not)."""
     spec = scenario.robot
     urdf = (path.parent / spec.urdf).resolve()
-    if not urdf.is_file():
+    if not urdf.exists():
         raise ScenarioError(f"{path}: robot.urdf: {spec.urdf!r} does not exist (looked at {urdf})")
+    check_urdf(path, urdf)
     try:
         joints, links = joints_and_links(urdf)
     except (ET.ParseError, ValueError) as err:
@@ -66,9 +98,38 @@ def check_robot(path: Path, scenario: Scenario) -> None:
 def check_robot_builds(path: Path, scenario: Scenario) -> None:
     """The robot is prepared and built as a run builds it: what a run would reject about it, rejected here."""
     try:
-        robot_of(scenario, path.parent)
+        robot = robot_of(scenario, path.parent)
     except (ValueError, FileNotFoundError, ET.ParseError) as err:
         raise ScenarioError(f"{path}: {str(err).strip().splitlines()[0]}") from None
+    check_budget(path, scenario, robot.n_dof)
+
+
+MAX_STEPS = 1_000_000  # control steps of one run: ~5.6 h simulated at 50 Hz, ~1.5 h of wall time at ~5 ms a step
+STEP_S = 0.005  # [s] wall time of a control step (planner + whole-body MPC + physics), for the estimate only
+MEMORY_SHARE = 0.25  # of this machine's RAM that one run's dense QP may take
+
+
+def check_budget(path: Path, scenario: Scenario, n_dof: int) -> None:
+    """Refuse, with the figure, a run this machine cannot do: too many control steps, or a whole-body QP whose
+    dense matrices (Hessian, constraint Jacobian, factors: ~3 n (n + m) doubles) do not fit in memory."""
+    sim, mpc = scenario.sim, scenario.mpc
+    steps = sim.duration / sim.control_dt
+    if steps > MAX_STEPS:
+        hours = steps * STEP_S / 3600
+        raise ScenarioError(
+            f"{path}: sim.duration: {sim.duration:g} s is {steps:.3g} control steps (~{hours:.3g} h of wall time at "
+            f"~{1e3 * STEP_S:g} ms a step); at most {MAX_STEPS} steps per run"
+        )
+    n = (mpc.control_points if mpc.transcription == "bezier" else 2 * mpc.knots) * n_dof
+    rows = mpc.knots * (2 * n_dof + 4 * (len(scenario.world.obstacles) + 4 * len(scenario.world.tables)))
+    need = 3 * 8 * n * (n + rows)
+    ram = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    if need > MEMORY_SHARE * ram:
+        raise ScenarioError(
+            f"{path}: mpc.knots: {mpc.knots} ({mpc.transcription}) makes a whole-body QP of {n} variables and "
+            f"~{rows} rows, ~{need / 2**30:.3g} GiB; this machine allows {MEMORY_SHARE * ram / 2**30:.3g} GiB "
+            "per run: fewer knots (or bezier)"
+        )
 
 
 def robot_of(scenario: Scenario, scenario_dir: Path) -> Robot:
@@ -150,7 +211,10 @@ def check_pushes(path: Path, scenario: Scenario) -> None:
 
 
 def check_solver(path: Path, scenario: Scenario) -> None:
-    from harmony_cli.mpc.registry import available_solvers, unavailable_message  # loads casadi: not for `schema`
+    from harmony_cli.mpc.registry import available_solvers, options_problem, unavailable_message  # loads casadi
 
     if scenario.solver.name not in available_solvers():
         raise ScenarioError(f"{path}: {unavailable_message(scenario.solver.name)}")
+    problem = options_problem(scenario.solver.name, dict(scenario.solver.options))
+    if problem:
+        raise ScenarioError(f"{path}: solver.options: {brief(dict(scenario.solver.options))}: {problem}")

@@ -14,6 +14,12 @@ class ScenarioError(ValueError):
     """A scenario that cannot be used; the message is one line naming file, field, value and choices."""
 
 
+def brief(value: Any, limit: int = 100) -> str:
+    """repr of a user's value, cut to `limit` characters (a value can be a megabyte of text)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
 def _model_at(loc: tuple) -> type[BaseModel] | None:
     """The model at a location such as ('world', 'obstacles', 0, 'motion'), through lists and optionals."""
     model: Any = Scenario
@@ -41,16 +47,26 @@ def one_line(path: Path, err: ValidationError) -> str:
     if e["type"] == "extra_forbidden":
         parent = _model_at(loc[:-1])
         choices = ", ".join(parent.model_fields) if parent else "see `harmony schema`"
-        return f"{path}: {field}: unknown key (value {value!r}); valid keys: {choices}"
+        return f"{path}: {field}: unknown key (value {brief(value)}); valid keys: {choices}"
     if e["type"] == "missing":
         return f"{path}: {field}: required field is missing"
     msg = e["msg"].removeprefix("Value error, ")
     if e["type"] == "union_tag_invalid":
         ctx = e["ctx"]
         return (
-            f"{path}: {field}.{ctx['discriminator'].strip(chr(39))}: {ctx['tag']!r} is not valid; "
+            f"{path}: {field}.{ctx['discriminator'].strip(chr(39))}: {brief(ctx['tag'])} is not valid; "
             f"choose one of: {ctx['expected_tags']}"
         )
-    if e["type"] == "literal_error":
-        return f"{path}: {field}: {value!r} is not valid; choose one of: {e['ctx']['expected']}"
-    return f"{path}: {field}: {value!r}: {msg}"
+    if e["type"] == "literal_error":  # a union of literals (qp: auto | daqp | ...) fails once per member
+        loc = tuple(p for p in loc if not str(p).startswith("literal["))
+        field = ".".join(str(p) for p in loc)
+        expected = [
+            other["ctx"]["expected"]
+            for other in err.errors()
+            if other["type"] == "literal_error"
+            and tuple(p for p in other["loc"] if not str(p).startswith("literal[")) == loc
+        ]
+        return f"{path}: {field}: {brief(value)} is not valid; choose one of: {' or '.join(expected)}"
+    if isinstance(value, dict):  # a section's own check: its message names the culprit
+        return f"{path}: {field}: {msg}"
+    return f"{path}: {field}: {brief(value)}: {msg}"

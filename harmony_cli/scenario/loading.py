@@ -12,6 +12,7 @@ from pydantic import ValidationError
 from harmony_cli.scenario.checks import check_pushes, check_robot, check_robot_builds, check_solver, check_task
 from harmony_cli.scenario.errors import ScenarioError, one_line
 from harmony_cli.scenario.models import Scenario
+from harmony_cli.scenario.source import check_values, load_yaml_file, parse_yaml
 
 
 def apply_overrides(raw: dict, overrides: list[str]) -> dict:
@@ -37,22 +38,21 @@ def apply_overrides(raw: dict, overrides: list[str]) -> dict:
             if not leaf.isdigit() or int(leaf) >= len(node):
                 raise ScenarioError(f"--set {item!r}: {leaf!r} is not an index of a list of {len(node)}")
             leaf = int(leaf)
-        node[leaf] = yaml.safe_load(text)
+        node[leaf] = parse_yaml(text, f"--set {item!r}", key)
     return raw
 
 
 def load_scenario(path: str | Path, overrides: Sequence[str] = ()) -> Scenario:
     """Read, override and validate a scenario; raise ScenarioError with a one-line message."""
     path = Path(path)
-    try:
-        raw = yaml.safe_load(path.read_text())
-    except FileNotFoundError:
-        raise ScenarioError(f"{path}: file not found") from None
-    except yaml.YAMLError as exc:
-        raise ScenarioError(f"{path}: not valid YAML: {str(exc).splitlines()[0]}") from None
+    raw = load_yaml_file(path)
     if not isinstance(raw, dict):
         raise ScenarioError(f"{path}: expected a mapping at the top level, got {type(raw).__name__}")
-    raw = apply_overrides(raw, list(overrides))
+    try:
+        raw = apply_overrides(raw, list(overrides))
+    except ScenarioError as err:
+        raise ScenarioError(f"{path}: {err}") from None
+    check_values(raw, path)
     try:
         scenario = Scenario.model_validate(raw)
     except ValidationError as err:

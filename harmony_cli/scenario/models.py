@@ -29,8 +29,8 @@ class MpcSpec(Strict):
     transcription: Literal["bezier", "traditional"] = "bezier"
     integration: Literal["euler", "trapezoidal"] = Field("euler", description="traditional transcription only")
     horizon: PositiveFloat = Field(5.0, description="prediction horizon T [s]")
-    knots: int = Field(26, ge=2, description="time knots K where the cost is evaluated (independent of N)")
-    control_points: int = Field(6, ge=2, description="Bezier control points N (bezier only)")
+    knots: int = Field(26, ge=2, le=400, description="time knots K where the cost is evaluated (independent of N)")
+    control_points: int = Field(6, ge=2, le=40, description="Bezier control points N (bezier only)")
     clearance: Literal["hard", "soft"] = Field(
         "hard",
         description="obstacle clearance of the base footprint and hands: constraint rows at knots k >= 1 "
@@ -50,13 +50,13 @@ class PlannerWeights(Strict):
 class PlannerSpec(Strict):
     """Task-space planner (MPC-T) for both hands; see planner.py."""
 
-    control_points: int = Field(11, ge=6, description="Bezier control points M per curve")
+    control_points: int = Field(11, ge=6, le=40, description="Bezier control points M per curve")
     min_horizon: PositiveFloat = Field(1.0, description="lower clamp of the remaining phase time [s]")
     max_speed: tuple[float, float, float] = Field((0.9, 0.9, 0.5), description="hand speed bound x, y, z [m/s]")
     max_acceleration: tuple[float, float, float] = Field((1.0, 1.0, 1.0), description="[m/s^2]")
     max_yaw_rate: PositiveFloat = Field(0.8, description="heading rate bound [rad/s]")
     max_yaw_acceleration: PositiveFloat = Field(1.5, description="[rad/s^2]")
-    samples: int = Field(20, ge=2, description="sample times for clearance and facing")
+    samples: int = Field(20, ge=2, le=400, description="sample times for clearance and facing")
     hand_radius: float = Field(0.08, ge=0, description="added to every obstacle margin for a hand centre [m]")
     period: int = Field(1, ge=1, description="re-plan every `period` control steps")
     start_velocity: Literal["plan", "measured"] = Field(
@@ -121,8 +121,11 @@ class SolverSpec(Strict):
     options: dict[str, Any] = Field(default_factory=dict, description="passed to the CasADi plugin")
 
 
+MAX_SUBSTEPS = 1000  # physics steps per control step: more is a unit mistake (ms for s), not a simulation
+
+
 class SimSpec(Strict):
-    physics_dt: PositiveFloat = Field(0.004, description="PyBullet step [s]")
+    physics_dt: float = Field(0.004, ge=1e-4, description="PyBullet step [s]")
     control_dt: PositiveFloat = Field(0.02, description="MPC period [s]; a whole multiple of physics_dt")
     duration: PositiveFloat = Field(26.0, description="closed-loop run length [s]")
     position_gain: float = Field(0.5, gt=0, le=1, description="PyBullet position-control gain of chest/arms/head")
@@ -141,6 +144,11 @@ class SimSpec(Strict):
         if physics_dt is None:
             return control_dt
         ratio = control_dt / physics_dt
+        if ratio > MAX_SUBSTEPS + 0.5:
+            raise ValueError(
+                f"{ratio:.0f} physics steps of {physics_dt} s per control step; at most {MAX_SUBSTEPS} (seconds, "
+                "not milliseconds?)"
+            )
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
             raise ValueError(
                 f"not a whole multiple of sim.physics_dt {physics_dt} (ratio {ratio:.4g}); valid: "

@@ -10,7 +10,7 @@ from pydantic import Field, field_validator, model_validator
 
 from harmony_cli.robot.presets import PresetUnavailable, available_presets, load_preset
 from harmony_cli.robot.tools import tool_link
-from harmony_cli.scenario.base import Strict, Vector3
+from harmony_cli.scenario.base import Size3, Strict, Vector3
 
 DEFAULT_PRESET = "eva"
 
@@ -23,7 +23,7 @@ class ToolSpec(Strict):
     rpy_deg: Vector3 = Field(
         (0.0, 0.0, 0.0), description="the frame's orientation in the parent's [deg]: z = pad normal, out of the hand"
     )
-    pad: Vector3 = Field((0.06, 0.04, 0.01), description="pad box size x, y, thickness [m], behind the face (along -z)")
+    pad: Size3 = Field((0.06, 0.04, 0.01), description="pad box size x, y, thickness [m], behind the face (along -z)")
 
 
 class MountSpec(Strict):

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import Field, PositiveFloat
+from pydantic import Field, PositiveFloat, model_validator
 
-from harmony_cli.scenario.base import Strict, Vector3
+from harmony_cli.scenario.base import Strict, Vector3, unique
 
 
 class SCurveReference(Strict):
@@ -56,3 +56,9 @@ class PhaseSpec(Strict):
 
 class TaskSpec(Strict):
     phases: list[PhaseSpec] = Field(min_length=1)
+
+    @model_validator(mode="after")
+    def _unique_phases(self) -> TaskSpec:
+        """Phases are reported, logged and plotted by name."""
+        unique([p.name for p in self.phases], "phase")
+        return self

@@ -7,7 +7,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field, PositiveFloat, ValidationInfo, field_validator, model_validator
 
-from harmony_cli.scenario.base import Strict, Vector3
+from harmony_cli.scenario.base import Size3, Strict, Vector3, unique
 
 
 class MotionSpec(Strict):
@@ -57,7 +57,7 @@ class ObstacleSpec(Strict):
     shape: Literal["box", "cylinder", "sphere"]
     position: Vector3 = Field(description="centre [m] (at t = 0; with waypoints it may be left out)")
     yaw_deg: float = 0.0
-    size: Vector3
+    size: Size3
     margin: float = Field(0.05, ge=0, description="clearance the MPCs keep from its surface [m]")
     motion: MotionSpec | None = Field(None, description="none: static")
 
@@ -89,7 +89,7 @@ class TableSpec(Strict):
     name: str
     position: tuple[float, float] = Field(description="centre of the top in x, y [m]")
     yaw_deg: float = 0.0
-    top: tuple[float, float] = Field((1.5, 0.8), description="top size x, y [m]")
+    top: tuple[PositiveFloat, PositiveFloat] = Field((1.5, 0.8), description="top size x, y [m]")
     height: PositiveFloat = Field(1.015, description="top surface above the floor [m]")
     thickness: PositiveFloat = 0.03
     friction: PositiveFloat = 0.6
@@ -98,7 +98,7 @@ class TableSpec(Strict):
 class BoxSpec(Strict):
     """The object to carry: a free PyBullet body held only by friction between the pads."""
 
-    size: Vector3 = (0.308, 0.305, 0.3)
+    size: Size3 = (0.308, 0.305, 0.3)
     mass: PositiveFloat = 0.8
     position: Vector3 = Field(description="centre [m]")
     yaw_deg: float = 0.0
@@ -115,6 +115,12 @@ class WorldSpec(Strict):
     tables: list[TableSpec] = []
     box: BoxSpec | None = None
     obstacles: list[ObstacleSpec] = []
+
+    @model_validator(mode="after")
+    def _unique_names(self) -> WorldSpec:
+        """Tables and obstacles are found by name (targets, pushes, logs); `box` and `robot` are taken."""
+        unique([t.name for t in self.tables] + [o.name for o in self.obstacles] + ["box", "robot"], "world name")
+        return self
 
 
 class PushSpec(Strict):

@@ -1,0 +1,70 @@
+"""SIGTERM, SIGINT and SIGHUP during a run end it cleanly: the handler raises RunInterrupted at the current step
+(the loop is Python around C calls that return within milliseconds), the run writes its results, and the command
+exits 128 + the signal's number. Further signals are ignored once the run is stopping or writing its results, so a
+second Ctrl-C or `kill` cannot cut summary.json short."""
+
+from __future__ import annotations
+
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+SIGNALS = (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """A run stopped by a signal; its directory holds the steps so far and summary.json (status interrupted).
+    A KeyboardInterrupt: `except Exception` in solvers or callers never swallows it, and click reports it."""
+
+    def __init__(self, signal_name: str, run_dir: Path | None = None):
+        super().__init__(signal_name)
+        self.signal_name = signal_name
+        self.run_dir = run_dir
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + int(signal.Signals[self.signal_name])
+
+
+class Guard:
+    """The state the handlers share: whether the run is already stopping (or writing its results)."""
+
+    def __init__(self) -> None:
+        self.stopping = False
+
+    def handle(self, signum: int, frame: object) -> None:
+        if self.stopping:  # a second signal, or one while the results are written: let them be written
+            return
+        self.stopping = True
+        raise RunInterrupted(signal.Signals(signum).name)
+
+    def hold(self) -> None:
+        """From here on (writing the results) signals are ignored."""
+        self.stopping = True
+
+
+@contextmanager
+def signals_end_the_run() -> Iterator[Guard]:
+    """Inside, SIGTERM / SIGINT / SIGHUP raise RunInterrupted once; the previous handlers come back after. Only the
+    main thread may set handlers: elsewhere (a library caller's thread) the signals keep their handlers."""
+    guard = Guard()
+    if threading.current_thread() is not threading.main_thread():
+        yield guard
+        return
+    # a signal ignored by whoever started us (nohup: SIGHUP; `cmd &` in a script: SIGINT) stays ignored
+    previous = {s: h for s in SIGNALS if (h := signal.getsignal(s)) != signal.SIG_IGN}
+    for s in previous:
+        signal.signal(s, guard.handle)
+    try:
+        yield guard
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
+
+
+def interrupted_summary(exc: RunInterrupted, rows: list[dict]) -> dict:
+    """summary.json's status, signal and reason for a run stopped by `exc` after `rows`."""
+    last = f"after {len(rows)} steps (t = {rows[-1]['t']:.2f} s simulated)" if rows else "before its first step"
+    return {"status": "interrupted", "signal": exc.signal_name, "reason": f"{exc.signal_name} received; stopped {last}"}
