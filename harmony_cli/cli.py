@@ -127,6 +127,7 @@ def compare(
     main_solver: str | None = typer.Option(None, help="Solver of the main table (default: first)"),
 ):
     """Run an ablation grid and write Table-1 style tables (md, csv, tex) and Fig. 4 plots."""
+    from harmony_cli.experiment.interrupts import RunInterrupted
     from harmony_cli.experiment.sweep import expand_grid, failed_runs, run_grid
     from harmony_cli.report.tables import compare_report
 
@@ -138,7 +139,11 @@ def compare(
     except ScenarioError as exc:
         _fail(str(exc))
     out = out or Path("results/compare") / base.name
-    dirs = run_grid(scenario, grid, set, out, jobs)
+    try:
+        dirs = run_grid(scenario, grid, set, out, jobs)
+    except RunInterrupted as exc:
+        _say("interrupted:", "yellow", f"{exc.signal_name}; the grid runs so far (done and interrupted) are in {out}")
+        raise typer.Exit(exc.exit_code) from None
     keys = [g.split("=", 1)[0] for g in grid]
     for path in compare_report(dirs, out, name, main_solver, keys):
         typer.echo(path)

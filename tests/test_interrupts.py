@@ -137,3 +137,23 @@ def test_the_stream_writes_once_its_interval_has_passed_and_its_reader_ignores_a
     rows = read_stream(path)
     assert [r["step"] for r in rows] == [0, 1] and rows[0]["success"] is True and np.isnan(rows[1]["new_key"])
     stream.close()
+
+
+def test_sigterm_to_compare_ends_every_worker_run_cleanly_and_exits_143(tmp_path):
+    command = [str(HARMONY), "compare", str(SMOKE), "--grid", "mpc.knots=6,8", "--jobs", "2", "--out", str(tmp_path)]
+    default_int = lambda: signal.signal(signal.SIGINT, signal.SIG_DFL)  # noqa: E731
+    proc = subprocess.Popen(
+        [*command, *LONG], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=default_int
+    )
+    runs = [tmp_path / "runs" / f"knots-{k}" for k in (6, 8)]
+    for run in runs:
+        _loop_started(run / "steps.jsonl", proc)
+    time.sleep(2.0)
+    proc.send_signal(signal.SIGTERM)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 143, stderr
+    assert stderr.strip().splitlines()[-1].startswith("interrupted: SIGTERM"), stderr
+    for run in runs:  # each worker got the signal and wrote its results
+        summary = json.loads((run / "summary.json").read_text())
+        assert summary["status"] == "interrupted" and summary["signal"] == "SIGTERM", summary
+        assert len(pd.read_csv(run / "steps.csv")) > 50

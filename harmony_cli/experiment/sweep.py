@@ -9,6 +9,7 @@ from pathlib import Path
 from rich.progress import Progress
 from rich.text import Text
 
+from harmony_cli.experiment.interrupts import RunInterrupted, signals_end_the_run
 from harmony_cli.experiment.run import run_scenario
 from harmony_cli.scenario import ScenarioError, apply_overrides
 
@@ -48,13 +49,25 @@ def run_grid(path: str | Path, axes: list[str], base_overrides: list[str], out: 
                     bar.console.print(Text(f"{d.name} failed: {exc}", style="red"))
                 bar.advance(task)
         else:
-            with ProcessPoolExecutor(max_workers=jobs) as pool:
-                futures = {pool.submit(_run_quiet, p, o, d, jobs): d for p, o, d in jobs_list}
-                for future in as_completed(futures):
-                    if future.exception():
-                        bar.console.print(Text(f"{futures[future].name} failed: {future.exception()}", style="red"))
-                    bar.advance(task)
+            _run_pool(jobs_list, jobs, bar, task)
     return dirs
+
+
+def _run_pool(jobs_list: list, jobs: int, bar: Progress, task) -> None:
+    """The grid on `jobs` worker processes. A signal to this process ends every worker's run cleanly (each
+    worker keeps its run's steps and says interrupted), cancels the points not started, then propagates."""
+    with signals_end_the_run(), ProcessPoolExecutor(max_workers=jobs) as pool:
+        try:
+            futures = {pool.submit(_run_quiet, p, o, d, jobs): d for p, o, d in jobs_list}
+            for future in as_completed(futures):
+                if future.exception():
+                    bar.console.print(Text(f"{futures[future].name} failed: {future.exception()}", style="red"))
+                bar.advance(task)
+        except RunInterrupted:
+            for worker in list(getattr(pool, "_processes", {}).values()):
+                worker.terminate()  # SIGTERM: the worker's run writes its results and stops
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
 
 
 def failed_runs(dirs: list[Path]) -> list[str]:
