@@ -109,6 +109,9 @@ def run(
     except RunFailed as exc:
         _say("run failed:", "red", str(exc))
         raise typer.Exit(1) from None
+    except OSError as exc:  # the run directory's inputs could not be written (e.g. a full disk): nothing ran
+        _say("run failed:", "red", f"could not write the run directory: {exc}")
+        raise typer.Exit(1) from None
     except RunInterrupted as exc:  # the run wrote its results; say where they are
         _say("interrupted:", "yellow", f"{exc.signal_name}; the steps so far, summary and plots are in {exc.run_dir}")
         raise typer.Exit(exc.exit_code) from None

@@ -5,6 +5,10 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
+import numpy as np
+
+from harmony_cli.experiment.faults import RunFault
+from harmony_cli.experiment.health import Health
 from harmony_cli.experiment.step_log import step_record
 from harmony_cli.mpc.knot_params import hand_rows
 from harmony_cli.mpc.wholebody import WholeBodyMPC
@@ -27,12 +31,14 @@ def run_loop(
     on_step: Callable[[int, int], None] = lambda i, n: None,
     watch: Watch | None = None,
     predict: Predictor | None = None,
+    health: Health | None = None,
 ) -> None:
     """Run the whole scenario; every step's record goes to `record` as soon as it exists (nothing is lost).
 
     `loop_ms` is the wall time from the observation to the command: references (planner) + obstacle prediction +
     whole-body MPC. The record (ground truth from `sim.truth()`, `watch`, cost terms) is built outside it.
-    `predict` (moving obstacles) gives the whole-body MPC the obstacles' centres at t + its knot times."""
+    `predict` (moving obstacles) gives the whole-body MPC the obstacles' centres at t + its knot times. `health`
+    checks every step's measurement (after its record: the steps log shows what diverged) before its command."""
     n_steps = int(round(duration / control_dt))
     for step in range(n_steps):
         t = step * control_dt
@@ -48,6 +54,10 @@ def run_loop(
         truth = sim.truth()
         watched = watch(t, obs, truth) if watch else {}
         record(step_record(step, t, loop_ms, mpc, obs, targets, command, result, truth, watched))
+        if health is not None:
+            health.check(t, obs.q, obs.hand_positions, targets.now)
+        if not (np.isfinite(command.q).all() and np.isfinite(command.qd).all()):  # never sent to the simulator
+            raise RunFault("solver", f"a non-finite command at t = {t:.2f} s (whole-body MPC: {result.status})")
         sim.apply(command.q, command.qd)
         sim.step(substeps)
         on_step(step + 1, n_steps)

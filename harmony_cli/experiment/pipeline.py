@@ -1,12 +1,14 @@
-"""One closed-loop run of a validated scenario, in steps: build (robot, MPCs, simulation), simulate, summarise,
+"""One closed-loop run of a validated scenario, in steps: build (robot, simulation, MPCs), simulate, summarise,
 plot. Whatever happens, the run directory keeps steps.csv, summary.json (status, and why it failed or was
-interrupted), meta.json and run.log; steps.jsonl streams the steps during the run, for a run killed hard."""
+interrupted), meta.json and run.log, as far as the disk lets them be written (summary.json whole or not at all);
+steps.jsonl streams the steps during the run, for a run killed hard."""
 
 from __future__ import annotations
 
 import json
 import time
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO
@@ -14,6 +16,8 @@ from typing import IO
 import pandas as pd
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
+from harmony_cli.experiment.faults import HeldPlans, Writes, failed, fault_of, write_whole
+from harmony_cli.experiment.health import Health, check_start
 from harmony_cli.experiment.interrupts import RunInterrupted, interrupted_summary, signals_end_the_run
 from harmony_cli.experiment.loop import Watch, run_loop
 from harmony_cli.experiment.run_dir import machine_meta
@@ -57,9 +61,16 @@ class Built:
 
 
 def build(scenario: Scenario, scenario_dir: Path) -> Built:
+    """The simulation first: a robot that starts inside the ground or an obstacle is refused before the MPCs'
+    build (RunFault "penetration")."""
     robot = robot_of(scenario, scenario_dir)
-    mpc = WholeBodyMPC(robot, scenario, scenario.sim.control_dt)
     sim = Simulation(robot, scenario.sim, scenario.world, scenario.pushes)
+    try:
+        check_start(sim.penetrations())
+        mpc = WholeBodyMPC(robot, scenario, scenario.sim.control_dt)
+    except BaseException:
+        sim.close()
+        raise
     if scenario.task is not None:
         references = TaskReferences(robot, scenario)
         return Built(robot, mpc, sim, references, TaskWatch(references), obstacle_predictor(scenario.world.obstacles))
@@ -105,6 +116,7 @@ def simulate(
     """The closed loop, every step's record appended to `rows` and streamed to steps.jsonl as it exists; returns
     the wall time [s]."""
     every = frame_every(scenario.sim.control_dt, VIDEO_FPS)
+    held = HeldPlans()
 
     def record(row: dict) -> None:
         rows.append(row)
@@ -114,6 +126,7 @@ def simulate(
             log.flush()
         if row.get("planner_success") is False:
             log.write(f"t={row['t']:.2f}s: planner failed ({row['planner_status']}); held its last plan\n")
+        held.update(row)  # failing for too long: RunFault
         if recorder and row["step"] % every == 0:
             recorder.capture()
 
@@ -139,6 +152,7 @@ def simulate(
             lambda done, total: bar.update(task, completed=done),
             built.watch,
             built.predict,
+            Health(built.robot, sim.control_dt),
         )
     return time.perf_counter() - start
 
@@ -156,6 +170,13 @@ def _recorder(built: Built, video: Path | None) -> VideoRecorder | None:
     )
 
 
+Attempt = Callable[[str, Callable[[], object]], object]  # (file, its write): a run's end tries each (faults.Writes)
+
+
+def _now(what: str, write: Callable[[], object]) -> object:
+    return write()
+
+
 def write_results(
     out: Path,
     scenario: Scenario,
@@ -164,13 +185,15 @@ def write_results(
     summary: dict,
     meta: dict,
     twin: pd.DataFrame | None,
+    attempt: Attempt = _now,
 ) -> pd.DataFrame:
-    """steps.csv (with push displacements from the twin), the summary's metrics, summary.json and meta.json."""
+    """steps.csv (with push displacements from the twin), the summary's metrics, summary.json and meta.json, each
+    written through `attempt` (at a run's end: one that fails does not stop the others)."""
     steps = pd.DataFrame(rows)
     hands = list(scenario.robot.end_effectors)
     if len(steps) and twin is not None:
         steps = displacement_from_twin(steps, twin, hands)
-    steps.to_csv(out / "steps.csv", index=False)
+    attempt("steps.csv", lambda: steps.to_csv(out / "steps.csv", index=False))
     if len(steps):
         urdf = robot_of(scenario, scenario_dir).urdf
         pushed = {
@@ -180,9 +203,34 @@ def write_results(
             for p in scenario.pushes
         }
         summary |= summarise_run(steps, scenario, hands, pushed)
-    (out / "meta.json").write_text(json.dumps(meta, indent=2))
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    attempt("meta.json", lambda: write_whole(out / "meta.json", json.dumps(meta, indent=2)))
+    attempt("summary.json", lambda: write_whole(out / "summary.json", json.dumps(summary, indent=2)))
     return steps
+
+
+def _finish(
+    out: Path,
+    scenario: Scenario,
+    scenario_dir: Path,
+    rows: list[dict],
+    summary: dict,
+    meta: dict,
+    twin: pd.DataFrame | None,
+    opened: tuple[IO[str], StepStream, VideoRecorder | None],
+    writes: Writes,
+) -> None:
+    """Every result of a run that can be written (a run that fails part-way keeps its video up to there)."""
+    log, stream, recorder = opened
+    writes(STREAM, stream.close)
+    if recorder and (video := writes("video", recorder.close)) is not None:
+        summary["video"] = str(video)
+    steps = write_results(out, scenario, scenario_dir, rows, summary, meta, twin, writes)
+    writes("run.log", lambda: log.write(f"status: {summary['status']}\n"))
+    writes("run.log", log.close)
+    if len(steps):
+        writes("plots", lambda: plot_run_dir(out, steps, scenario, summary))
+    if writes.reason is not None:  # a write failed after summary.json was: it says so now
+        writes("summary.json", lambda: write_whole(out / "summary.json", json.dumps(summary, indent=2)))
 
 
 def execute(
@@ -199,7 +247,7 @@ def execute(
     meta = machine_meta(concurrency) | {"seed": scenario.seed}
     summary: dict = {"name": scenario.name, "status": "running"} | ({"push_free_twin": twin_info} if twin_info else {})
     rows: list[dict] = []
-    recorder = None
+    built, recorder, writes = None, None, Writes(out, summary)
     log, stream = (out / "run.log").open("w"), StepStream(out / STREAM)
     with signals_end_the_run() as guard:
         try:
@@ -216,28 +264,26 @@ def execute(
             log.flush()
             recorder = _recorder(built, video)
             summary["wall_time_s"] = simulate(built, scenario, rows, stream, log, recorder, progress)
-            built.sim.close()
             summary["status"] = "completed"
         except RunInterrupted as exc:  # a signal: the steps so far are results, not a failure
             summary |= interrupted_summary(exc, rows)
-            log.write(f"{summary['reason']}\n")
+            writes("run.log", lambda: log.write(f"{summary['reason']}\n"))
             exc.run_dir = out
             raise
         except BaseException as exc:  # noqa: BLE001 - record why, then report
-            reason = f"{type(exc).__name__}: {str(exc).strip().splitlines()[-1] if str(exc).strip() else ''}"
-            summary |= {"status": "failed", "error": reason}
-            log.write(traceback.format_exc())
+            category, reason = fault_of(exc, out, rows, built.sim if built else None)
+            summary |= failed(category, reason)
+            # a fault we know says all in its reason; anything else keeps its traceback (in run.log only)
+            detail = traceback.format_exc() if category == "error" else f"run failed ({category}): {reason}\n"
+            writes("run.log", lambda: log.write(detail))
             if not isinstance(exc, Exception):
                 raise
             raise RunFailed(out, reason) from exc
         finally:
             guard.hold()  # a second signal must not cut the results short
-            stream.close()
-            if recorder:  # a run that fails part-way keeps its video up to there
-                summary["video"] = str(recorder.close())
-            steps = write_results(out, scenario, scenario_dir, rows, summary, meta, twin)
-            log.write(f"status: {summary['status']}\n")
-            log.close()
-            if len(steps):
-                plot_run_dir(out, steps, scenario, summary)
+            if built is not None:
+                built.sim.close()
+            _finish(out, scenario, scenario_dir, rows, summary, meta, twin, (log, stream, recorder), writes)
+    if writes.reason is not None:  # the run completed, its results could not all be written
+        raise RunFailed(out, writes.reason)
     return out

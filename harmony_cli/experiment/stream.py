@@ -47,9 +47,12 @@ class StepStream:
         self._last = time.monotonic()
 
     def close(self) -> None:
+        """Idempotent; the file is closed even when the last write fails (a full disk)."""
         if not self._file.closed:
-            self.flush()
-            self._file.close()
+            try:
+                self.flush()
+            finally:
+                self._file.close()
 
 
 def read_stream(path: Path) -> list[dict]:

@@ -195,6 +195,8 @@ class TaskPlanner:
                 status = "converged"
                 break
         status += suffix
+        if success and not np.all(np.isfinite(C)):  # NaN / inf never becomes the plan: the last one is held
+            success, status = False, "non-finite plan"
         if success:
             self.C, self.phase, self.t_plan, self.T_plan = C, phase, t, T
         if self.C is None:

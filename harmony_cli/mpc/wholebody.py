@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -78,6 +78,18 @@ class WholeBodyMPC:
         positions = np.tile(q_now[:, None], t.position_basis.shape[1]).ravel("F")
         return np.concatenate([positions, np.zeros(t.n_vars - positions.size)])
 
+    def _solve(self, x0: np.ndarray, lbx: np.ndarray, ubx: np.ndarray) -> SolveResult:
+        """The solver's result; an exception or a non-finite solution is a failed solve (the last plan is held)."""
+        start = time.perf_counter()
+        try:
+            result = self.solver.solve(x0, lbx, ubx, self.params)
+        except Exception as exc:  # noqa: BLE001 - a solver plugin's bug or a numerical error: a failed solve
+            status = f"exception {type(exc).__name__}: {str(exc).strip().splitlines()[0] if str(exc).strip() else ''}"
+            return SolveResult(x0, False, status[:200], 0, time.perf_counter() - start)
+        if result.success and not np.all(np.isfinite(result.x)):  # NaN / inf never becomes a plan
+            return replace(result, success=False, status="non-finite solution")
+        return result
+
     def step(
         self,
         q_now: np.ndarray,
@@ -95,17 +107,23 @@ class WholeBodyMPC:
         q_init[self.pinned] = robot.home[self.pinned]
         lbx, ubx = t.bounds(*self.limits, q_init, self.pinned, robot.home[self.pinned])
         x0 = self._constant(q_init) if self.x is None else t.shift(self.x, dt)
-        result = self.solver.solve(np.clip(x0, lbx, ubx), lbx, ubx, self.params)
-        held = not result.success
-        if not held:
+        result = self._solve(np.clip(x0, lbx, ubx), lbx, ubx)
+        command = self._command(result.x, held=False) if result.success else None
+        if command is not None and np.isfinite(command.q).all() and np.isfinite(command.qd).all():
             self.x = result.x
-        elif self.x is None:
+            return command, result
+        if command is not None:  # a command the simulator must never get: a failed solve too
+            result = replace(result, success=False, status="non-finite command")
+        if self.x is None:
             raise RuntimeError(f"first whole-body MPC solve failed ({result.status}); no plan to hold")
-        else:
-            self.x = t.shift(self.x, dt)
         # A held plan is read out from its shifted copy: it continues from where it was, not from q_now.
-        q_cmd, qd_cmd = t.readout(self.x, dt)
+        self.x = t.shift(self.x, dt)
+        return self._command(self.x, held=True), result
+
+    def _command(self, x: np.ndarray, held: bool) -> Command:
+        t, dt, robot = self.transcription, self.control_dt, self.robot
+        q_cmd, qd_cmd = t.readout(x, dt)
         base = list(robot.base_joints)  # velocity-commanded: the plan's mean velocity over the period
-        qd_cmd[base] = (q_cmd[base] - t.readout(self.x, 0.0)[0][base]) / dt
+        qd_cmd[base] = (q_cmd[base] - t.readout(x, 0.0)[0][base]) / dt
         nd = robot.n_dof
-        return Command(q_cmd[:nd], qd_cmd[:nd], held, q_cmd[nd:]), result
+        return Command(q_cmd[:nd], qd_cmd[:nd], held, q_cmd[nd:])

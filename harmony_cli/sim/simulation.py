@@ -39,6 +39,7 @@ class Truth:
 
 
 IDEAL_EFFORT = 1e4  # [N m | N] motor force limit of robot.actuators: ideal
+SimulatorError = pybullet.error  # what every client call raises, e.g. once the physics server is gone
 
 
 class Simulation:
@@ -53,7 +54,7 @@ class Simulation:
             self.client.setGravity(0, 0, -9.81)
             self.client.setPhysicsEngineParameter(fixedTimeStep=sim_spec.physics_dt, deterministicOverlappingPairs=1)
             ground = self.client.createCollisionShape(pybullet.GEOM_PLANE)
-            self.client.createMultiBody(0, ground)
+            self.ground = self.client.createMultiBody(0, ground)
             flags = pybullet.URDF_USE_INERTIA_FROM_FILE
             self.body = self.client.loadURDF(str(robot.urdf), useFixedBase=True, flags=flags)
         self.notes = [f"pybullet: {line}" for line in PYBULLET_BANNER + output]
@@ -181,5 +182,32 @@ class Simulation:
                     forces[h] += point[9]
         return forces
 
+    @property
+    def connected(self) -> bool:
+        return bool(self.client.isConnected())
+
+    def penetrations(self) -> list[tuple[str, str, float]]:
+        """(robot link, other body, signed distance [m]; negative: inside) of every contact between the robot and
+        another body, from a collision pass without a physics step (e.g. before the first)."""
+        self.client.performCollisionDetection()
+        names = {self.ground: "the ground"}
+        if self.world is not None:
+            names |= {i: f"table {name}" for name, ids in self.world.tables.items() for i in ids}
+            names |= {i: f"obstacle {name}" for name, i in self.world.obstacles.items()}
+            if self.world.box is not None:
+                names[self.world.box] = "the box"
+        return [
+            (self._link_name(p[3]), names.get(p[2], f"body {p[2]}"), float(p[8]))
+            for p in self.client.getContactPoints(bodyA=self.body)
+            if p[2] != self.body
+        ]
+
+    def _link_name(self, link: int) -> str:
+        if link < 0:
+            return self.client.getBodyInfo(self.body)[0].decode()
+        return self.client.getJointInfo(self.body, link)[12].decode()
+
     def close(self) -> None:
-        self.client.disconnect()
+        """Idempotent; a lost connection has nothing to close."""
+        if self.connected:
+            self.client.disconnect()

@@ -3,6 +3,7 @@ MPC's knots. It sees only the observation (hands, box pose) and the scenario's s
 
 from __future__ import annotations
 
+import time
 from functools import partial
 from typing import TYPE_CHECKING
 
@@ -80,6 +81,18 @@ class TaskReferences:
         return HandTargets(positions, rotations, positions[0] if now is None else now, force_ref, log)
 
     def _replan(self, t: float, obs: Observation, active: ActivePhase, holding: bool) -> PlannerResult:
+        """The planner's new plan; an exception is a failed solve that holds the last plan (none yet: raised)."""
+        start = time.perf_counter()
+        try:
+            return self._plan(t, obs, active, holding)
+        except Exception as exc:  # noqa: BLE001 - a QP's or our numerics' error: like a failed solve
+            if self.result is None:
+                raise
+            message = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+            status = f"exception {type(exc).__name__}: {message}"[:200]
+            return PlannerResult(self.result.plan, False, status, 0, time.perf_counter() - start, float("nan"))
+
+    def _plan(self, t: float, obs: Observation, active: ActivePhase, holding: bool) -> PlannerResult:
         heading = heading_of(obs.hand_rotations, self.home_rotations)
         if self.scenario.planner.start_velocity == "plan" and self.result is not None:
             rates = self.result.plan.rates(t)  # measured pose, the plan's own velocity: no restart at rest
