@@ -114,6 +114,7 @@ def test_a_solver_that_keeps_raising_fails_the_run_after_a_second_of_held_plans(
     assert f"held for at most {MAX_HELD_S:g} s" in summary["reason"]
 
 
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # numpy's on the overflow injected ("huge")
 @pytest.mark.parametrize("kind, status", [("nan", "non-finite solution"), ("huge", "non-finite command")])
 def test_a_nan_solution_or_command_never_reaches_the_simulator_and_the_last_plan_is_held(
     kind, status, monkeypatch, tmp_path
