@@ -12,7 +12,7 @@ from pydantic import ValidationError
 from harmony_cli.scenario.checks import check_pushes, check_robot, check_robot_builds, check_solver, check_task
 from harmony_cli.scenario.errors import ScenarioError, one_line
 from harmony_cli.scenario.models import Scenario
-from harmony_cli.scenario.source import check_values, load_yaml_file, parse_yaml
+from harmony_cli.scenario.source import load_yaml_file, parse_yaml
 
 
 def apply_overrides(raw: dict, overrides: list[str]) -> dict:
@@ -52,7 +52,6 @@ def load_scenario(path: str | Path, overrides: Sequence[str] = ()) -> Scenario:
         raw = apply_overrides(raw, list(overrides))
     except ScenarioError as err:
         raise ScenarioError(f"{path}: {err}") from None
-    check_values(raw, path)
     try:
         scenario = Scenario.model_validate(raw)
     except ValidationError as err:
