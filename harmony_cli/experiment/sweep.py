@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import json
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
@@ -72,8 +73,6 @@ def _run_pool(jobs_list: list, jobs: int, bar: Progress, task) -> None:
 
 def failed_runs(dirs: list[Path]) -> list[str]:
     """'label (status: reason)' for every grid run that did not complete."""
-    import json
-
     failed = []
     for d in dirs:
         try:
@@ -81,5 +80,6 @@ def failed_runs(dirs: list[Path]) -> list[str]:
         except (OSError, ValueError):
             summary = {"status": "no summary.json"}
         if summary.get("status") != "completed":
-            failed.append(f"{d.name} ({summary.get('status')}: {summary.get('error', '')})")
+            why = summary.get("reason") or summary.get("error") or ""  # interrupted runs give a reason only
+            failed.append(f"{d.name} ({summary.get('status')}: {why})")
     return failed
