@@ -117,3 +117,20 @@ def test_grid_points_expand_and_label_by_the_last_key_and_the_whole_value():
     ]
     assert [point_label(p) for p in points] == ["knots-6_off_squeeze-0.0003", "knots-26_off_squeeze-0.0003"]
     assert point_label([]) == "base"
+
+
+def test_failed_runs_lists_every_grid_run_that_did_not_complete_with_its_reason(tmp_path):
+    from harmony_cli.experiment.sweep import failed_runs
+
+    states = {"ok": {"status": "completed"}, "cut": {"status": "interrupted", "reason": "SIGTERM received"}}
+    states["bad"] = {"status": "failed", "error": "RuntimeError: x"}
+    for name, summary in states.items():
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "summary.json").write_text(json.dumps(summary))
+    (tmp_path / "none").mkdir()
+    dirs = [tmp_path / n for n in ("ok", "cut", "bad", "none")]
+    assert failed_runs(dirs) == [
+        "cut (interrupted: SIGTERM received)",
+        "bad (failed: RuntimeError: x)",
+        "none (no summary.json: )",
+    ]
