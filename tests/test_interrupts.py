@@ -25,7 +25,7 @@ from harmony_cli.experiment.rebuild import REBUILT
 from harmony_cli.experiment.stream import StepStream, read_stream
 
 HARMONY = Path(sys.executable).with_name("harmony")
-LONG = ["--set", "sim.duration=120"]  # minutes of steps: every signal lands mid-loop
+LONG = ["--set", "sim.duration=3600"]  # an hour of steps: every signal lands mid-loop on any machine
 
 
 def _loop_started(jsonl: Path, proc: subprocess.Popen, within_s: float = 90.0) -> None:
