@@ -5,7 +5,7 @@ STAMP := $(VENV)/.installed
 HARMONY := $(VENV)/bin/harmony
 TABLE1 := scenarios/paper/table1_s_shape.yaml
 
-.PHONY: install lint test test-slow bench reproduce-paper docs clean
+.PHONY: install lint test test-slow bench reproduce-paper study docs clean
 
 # Ranges live in pyproject.toml; constraints.txt pins the versions every install uses (refresh it with
 # `.venv/bin/pip freeze | grep -v '^-e' > constraints.txt` after a deliberate upgrade).
@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "harmony needs Python 3.11 (PyBullet wheels)"'
 	$(PYTHON) -m venv $(VENV)
 	$(VENV)/bin/pip install -q --upgrade pip
-	$(VENV)/bin/pip install -q -c constraints.txt -e '.[test,dev,robots]'
+	$(VENV)/bin/pip install -q -c constraints.txt -e '.[test,dev,robots,study,ray]'
 	touch $(STAMP)
 
 install: $(STAMP)
@@ -75,6 +75,11 @@ reproduce-paper: $(STAMP)
 	for a in true false; do cp results/paper/push_recovery/runs/enabled-$$a/push_left_hand.png \
 		results/paper/push_recovery_admittance_$$a.png; done
 	$(VENV)/bin/python tools/render_docs.py
+
+# pick_and_carry over 100 randomised scenes on 2 local jobs (resumable: started again, it runs what is missing);
+# its report, figures and study.parquet are committed under results/studies/ (the run directories are not)
+study: $(STAMP)
+	$(HARMONY) study studies/pick_and_carry_random.yaml --jobs 2 --out results/studies/pick_and_carry_random
 
 clean:
 	rm -rf results/runs results/compare results/bench results/paper/runs results/paper/push_recovery results/paper/robots .pytest_cache .hypothesis

@@ -9,9 +9,9 @@ from pathlib import Path
 import click
 import typer
 from pydantic import ValidationError
-from rich.console import Console
-from rich.text import Text
 
+from harmony_cli.commands.study import study
+from harmony_cli.console import fail, literal, say, warn
 from harmony_cli.scenario import Scenario, ScenarioError, load_scenario, robot_warnings
 
 app = typer.Typer(
@@ -19,29 +19,7 @@ app = typer.Typer(
     no_args_is_help=True,
     help="Whole-body Bezier MPC experiments for dual-arm mobile manipulators, from YAML.",
 )
-err = Console(stderr=True)
-
 SET_HELP = "Override a scenario field, e.g. --set mpc.knots=6 (repeatable)."
-
-
-def literal(text: str) -> str:
-    """User-provided text as it can be shown on one terminal line: control characters (escape sequences, line
-    breaks) escaped; rich markup is never interpreted (see `_say`)."""
-    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
-
-
-def _say(label: str, style: str, message: str) -> None:
-    err.print(Text.assemble((label, style), " ", literal(message)), highlight=False, soft_wrap=True)
-
-
-def _fail(message: str) -> None:
-    _say("error:", "red", message)
-    raise typer.Exit(2)
-
-
-def _warn(lines: list[str]) -> None:
-    for line in lines:
-        _say("warning:", "yellow", line)
 
 
 def _click_errors() -> tuple[tuple[type[Exception], ...], tuple[type[BaseException], ...]]:
@@ -69,7 +47,7 @@ def main() -> None:
             typer.echo(ctx.get_help())
             sys.exit(0)
         hint = f" (see `{ctx.command_path} --help`)" if ctx is not None else ""
-        _say("error:", "red", getattr(exc, "format_message", exc.__str__)() + hint)
+        say("error:", "red", getattr(exc, "format_message", exc.__str__)() + hint)
         sys.exit(getattr(exc, "exit_code", 2))
     except aborts:  # Ctrl-C outside a run
         sys.exit(130)
@@ -100,20 +78,20 @@ def run(
 
     try:
         if video_path is not None and video_path.suffix.lower() not in (".mp4", ".gif"):
-            _fail(f"--video-file: {str(video_path)!r} must end in .mp4 or .gif")
-        _warn(robot_warnings(load_scenario(scenario, set), scenario.parent))
+            fail(f"--video-file: {str(video_path)!r} must end in .mp4 or .gif")
+        warn(robot_warnings(load_scenario(scenario, set), scenario.parent))
         target = video_path or (True if video else None)
         run_dir = run_scenario(scenario, set, out, progress=not quiet, video=target, push_free_twin=twin)
     except (ScenarioError, SolverUnavailable) as exc:
-        _fail(str(exc))
+        fail(str(exc))
     except RunFailed as exc:
-        _say("run failed:", "red", str(exc))
+        say("run failed:", "red", str(exc))
         raise typer.Exit(1) from None
     except OSError as exc:  # the run directory's inputs could not be written (e.g. a full disk): nothing ran
-        _say("run failed:", "red", f"could not write the run directory: {exc}")
+        say("run failed:", "red", f"could not write the run directory: {exc}")
         raise typer.Exit(1) from None
     except RunInterrupted as exc:  # the run wrote its results; say where they are
-        _say("interrupted:", "yellow", f"{exc.signal_name}; the steps so far, summary and plots are in {exc.run_dir}")
+        say("interrupted:", "yellow", f"{exc.signal_name}; the steps so far, summary and plots are in {exc.run_dir}")
         raise typer.Exit(exc.exit_code) from None
     for line in run_lines(run_dir, json.loads((run_dir / "summary.json").read_text())):
         typer.echo(line)
@@ -136,23 +114,23 @@ def compare(
 
     try:
         base = load_scenario(scenario, set)
-        _warn(robot_warnings(base, scenario.parent))
+        warn(robot_warnings(base, scenario.parent))
         for point in expand_grid(grid):
             load_scenario(scenario, list(set) + point)  # every grid point is valid before anything runs
     except ScenarioError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     out = out or Path("results/compare") / base.name
     try:
         dirs = run_grid(scenario, grid, set, out, jobs)
     except RunInterrupted as exc:
-        _say("interrupted:", "yellow", f"{exc.signal_name}; the grid runs so far (done and interrupted) are in {out}")
+        say("interrupted:", "yellow", f"{exc.signal_name}; the grid runs so far (done and interrupted) are in {out}")
         raise typer.Exit(exc.exit_code) from None
     keys = [g.split("=", 1)[0] for g in grid]
     for path in compare_report(dirs, out, name, main_solver, keys):
         typer.echo(path)
     failed = failed_runs(dirs)
     if failed:
-        _say("failed:", "red", f"{len(failed)} of {len(dirs)} grid runs: {'; '.join(failed)}")
+        say("failed:", "red", f"{len(failed)} of {len(dirs)} grid runs: {'; '.join(failed)}")
         raise typer.Exit(1)
 
 
@@ -165,12 +143,12 @@ def validate(files: list[Path], set: list[str] = typer.Option([], "--set", help=
         try:
             loaded = load_scenario(f, set)
             typer.echo(literal(f"{f}: ok"))
-            _warn(robot_warnings(loaded, f.parent))
+            warn(robot_warnings(loaded, f.parent))
         except ScenarioError as exc:
-            _say("error:", "red", str(exc))
+            say("error:", "red", str(exc))
             bad += 1
         except Exception as exc:  # noqa: BLE001 - a bug of harmony's, not the file's: say so and go on
-            _say("internal error:", "red", f"{f}: {type(exc).__name__}: {exc} (please report this)")
+            say("internal error:", "red", f"{f}: {type(exc).__name__}: {exc} (please report this)")
             broken += 1
     if bad or broken:
         raise typer.Exit(2 if bad else 1)
@@ -204,14 +182,14 @@ def robots_show(name: str):
     from harmony_cli.scenario import RobotSpec
 
     if name not in available_presets():
-        _fail(f"robots show: {name!r} is not a robot preset; {closest(name, available_presets())}")
+        fail(f"robots show: {name!r} is not a robot preset; {closest(name, available_presets())}")
     try:
         spec = RobotSpec.model_validate({"preset": name})
         robot = load_robot(spec, Path.cwd())
     except ValidationError as exc:
-        _fail(f"robots show {name}: {exc.errors()[0]['msg']}")
+        fail(f"robots show {name}: {exc.errors()[0]['msg']}")
     except ValueError as exc:
-        _fail(f"robots show {name}: {exc}")
+        fail(f"robots show {name}: {exc}")
     for line in robot_lines(name, robot):
         typer.echo(line)
 
@@ -233,7 +211,7 @@ def experiments(
 
     missing = [str(r) for r in runs if not (r / "summary.json").exists()]
     if missing:
-        _fail(f"not run directories (no summary.json): {', '.join(missing)}")
+        fail(f"not run directories (no summary.json): {', '.join(missing)}")
     for path in experiments_report(list(runs), out, name):
         typer.echo(path)
 
@@ -251,11 +229,11 @@ def paths(
 
     missing = [str(r) for r in runs if not (r / "steps.csv").exists()]
     if missing:
-        _fail(f"not run directories (no steps.csv): {', '.join(missing)}")
+        fail(f"not run directories (no steps.csv): {', '.join(missing)}")
     try:
         loaded = {r.name: (pd.read_csv(r / "steps.csv"), load_scenario(r / "scenario.resolved.yaml")) for r in runs}
     except ScenarioError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     out.parent.mkdir(parents=True, exist_ok=True)
     typer.echo(plot_paths_compared(out, loaded, title))
 
@@ -283,7 +261,7 @@ def bench(
         if loop and str(loop):
             run_loop_bench(loop, out.with_name("loop.json") if out else None)
     except (ScenarioError, SolverUnavailable) as exc:
-        _fail(str(exc))
+        fail(str(exc))
 
 
 @app.command()
@@ -294,6 +272,9 @@ def summarise(run_dir: Path):
     try:
         summary = rebuild_run_dir(run_dir)
     except (ScenarioError, OSError, ValueError) as exc:
-        _fail(str(exc))
+        fail(str(exc))
     steps = summary.get("steps", 0)
     typer.echo(literal(f"{run_dir}: {summary['status']}, {steps} steps; steps.csv, summary.json and plots rebuilt"))
+
+
+app.command()(study)

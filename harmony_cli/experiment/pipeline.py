@@ -218,8 +218,10 @@ def _finish(
     twin: pd.DataFrame | None,
     opened: tuple[IO[str], StepStream, VideoRecorder | None],
     writes: Writes,
+    plots: str = "all",
 ) -> None:
-    """Every result of a run that can be written (a run that fails part-way keeps its video up to there)."""
+    """Every result of a run that can be written (a run that fails part-way keeps its video up to there); the
+    plots as `plots` asks (all | failed | none)."""
     log, stream, recorder = opened
     writes(STREAM, stream.close)
     if recorder and (video := writes("video", recorder.close)) is not None:
@@ -227,10 +229,17 @@ def _finish(
     steps = write_results(out, scenario, scenario_dir, rows, summary, meta, twin, writes)
     writes("run.log", lambda: log.write(f"status: {summary['status']}\n"))
     writes("run.log", log.close)
-    if len(steps):
+    if len(steps) and (plots == "all" or plots == "failed" and not succeeded(summary)):
         writes("plots", lambda: plot_run_dir(out, steps, scenario, summary))
     if writes.reason is not None:  # a write failed after summary.json was: it says so now
         writes("summary.json", lambda: write_whole(out / "summary.json", json.dumps(summary, indent=2)))
+
+
+def succeeded(summary: dict) -> bool:
+    """A run that completed, with its task's success (a hand trajectory: no failed solve)."""
+    task = summary.get("task")
+    ok = task.get("success") if task is not None else summary.get("failed_solves") == 0
+    return summary.get("status") == "completed" and bool(ok)
 
 
 def execute(
@@ -242,6 +251,7 @@ def execute(
     video: Path | None = None,
     twin: pd.DataFrame | None = None,
     twin_info: dict | None = None,
+    plots: str = "all",
 ) -> Path:
     """Build, simulate, summarise and plot one run into `out` (its inputs already written there)."""
     meta = machine_meta(concurrency) | {"seed": scenario.seed}
@@ -283,7 +293,7 @@ def execute(
             guard.hold()  # a second signal must not cut the results short
             if built is not None:
                 built.sim.close()
-            _finish(out, scenario, scenario_dir, rows, summary, meta, twin, (log, stream, recorder), writes)
+            _finish(out, scenario, scenario_dir, rows, summary, meta, twin, (log, stream, recorder), writes, plots)
     if writes.reason is not None:  # the run completed, its results could not all be written
         raise RunFailed(out, writes.reason)
     return out

@@ -19,10 +19,12 @@ def run_scenario(
     concurrency: int = 1,
     video: Path | bool | None = None,
     push_free_twin: bool = True,
+    plots: str = "all",
 ) -> Path:
     """Run one scenario closed loop; always leaves steps.csv, summary.json (status) and run.log in `out`;
     `video` (a .mp4 or .gif path, or True for out/video.mp4) records it, rendered headless. A scenario with pushes
-    first runs its push-free twin into out/push_free (`push_free_twin=False`: displacements from the reference)."""
+    first runs its push-free twin into out/push_free (`push_free_twin=False`: displacements from the reference).
+    `plots`: all, failed (only when the run did not succeed) or none."""
     path = Path(path)
     scenario = load_scenario(path, list(overrides))
     out = Path(out) if out else default_run_dir(scenario.name)
@@ -39,4 +41,5 @@ def run_scenario(
         out / "video.mp4" if video is True else (video or None),
         twin,
         twin_info,
+        plots,
     )

@@ -20,9 +20,9 @@ def brief(value: Any, limit: int = 100) -> str:
     return text if len(text) <= limit else text[:limit] + "..."
 
 
-def _model_at(loc: tuple) -> type[BaseModel] | None:
+def _model_at(loc: tuple, root: type[BaseModel]) -> type[BaseModel] | None:
     """The model at a location such as ('world', 'obstacles', 0, 'motion'), through lists and optionals."""
-    model: Any = Scenario
+    model: Any = root
     for part in loc:
         if isinstance(part, int):
             continue
@@ -38,14 +38,14 @@ def _model_at(loc: tuple) -> type[BaseModel] | None:
     return model
 
 
-def one_line(path: Path, err: ValidationError) -> str:
-    """The first validation error as one line: file, field, value and the valid choices."""
+def one_line(path: Path, err: ValidationError, root: type[BaseModel] = Scenario) -> str:
+    """The first validation error of a `root` model as one line: file, field, value and the valid choices."""
     e = err.errors()[0]
     loc = tuple(p for p in e["loc"] if not (isinstance(p, str) and p in ("s_curve", "hold")))
     field = ".".join(str(p) for p in loc) or "(top level)"
     value = e.get("input")
     if e["type"] == "extra_forbidden":
-        parent = _model_at(loc[:-1])
+        parent = _model_at(loc[:-1], root)
         choices = ", ".join(parent.model_fields) if parent else "see `harmony schema`"
         return f"{path}: {field}: unknown key (value {brief(value)}); valid keys: {choices}"
     if e["type"] == "missing":

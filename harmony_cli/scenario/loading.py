@@ -16,8 +16,9 @@ from harmony_cli.scenario.source import load_yaml_file, parse_yaml
 
 
 def apply_overrides(raw: dict, overrides: list[str]) -> dict:
-    """Apply `a.b.c=value` overrides (value parsed as YAML) to a raw scenario mapping; a number indexes a list
-    (`world.obstacles.0.motion=null`)."""
+    """Apply `a.b.c=value` overrides (value parsed as YAML) to a raw scenario mapping; in a list, a number is an
+    index and a name picks the item of that name (`world.obstacles.0.motion=null`,
+    `world.obstacles.cylinder.position.1=2.0`)."""
     raw = copy.deepcopy(raw)
     for item in overrides:
         key, sep, text = item.partition("=")
@@ -27,19 +28,26 @@ def apply_overrides(raw: dict, overrides: list[str]) -> dict:
         *parents, leaf = key.split(".")
         for part in parents:
             if isinstance(node, list):
-                if not part.isdigit() or int(part) >= len(node):
-                    raise ScenarioError(f"--set {item!r}: {part!r} is not an index of a list of {len(node)}")
-                node = node[int(part)]
+                node = node[list_index(node, part, f"--set {item!r}")]
             else:
                 node = node.setdefault(part, {})
             if not isinstance(node, (dict, list)):
                 raise ScenarioError(f"--set {item!r}: {part!r} is not a section or a list")
         if isinstance(node, list):
-            if not leaf.isdigit() or int(leaf) >= len(node):
-                raise ScenarioError(f"--set {item!r}: {leaf!r} is not an index of a list of {len(node)}")
-            leaf = int(leaf)
+            leaf = list_index(node, leaf, f"--set {item!r}")
         node[leaf] = parse_yaml(text, f"--set {item!r}", key)
     return raw
+
+
+def list_index(items: list, part: str, where: str) -> int:
+    """The index `part` names in a list: a number, or the name of one of its items (obstacles, tables, ...)."""
+    if part.isdigit() and int(part) < len(items):
+        return int(part)
+    names = [i.get("name") for i in items if isinstance(i, dict)]
+    if part in names:
+        return names.index(part)
+    named = f" or a name ({', '.join(map(str, names))})" if any(names) else ""
+    raise ScenarioError(f"{where}: {part!r} is not an index of a list of {len(items)}{named}")
 
 
 def load_scenario(path: str | Path, overrides: Sequence[str] = ()) -> Scenario:

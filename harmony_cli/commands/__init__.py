@@ -1,0 +1,1 @@
+"""Commands of the `harmony` command line that need more than a wrapper (registered in harmony_cli.cli)."""

@@ -1,0 +1,62 @@
+"""`harmony study STUDY.yaml` and `harmony study report DIR`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from harmony_cli.console import fail, literal, say
+from harmony_cli.scenario import ScenarioError
+
+
+def study(
+    target: str = typer.Argument(..., help="STUDY.yaml, or `report` followed by a study directory"),
+    study_dir: Path | None = typer.Argument(None, help="With `report`: the study directory"),
+    out: Path | None = typer.Option(None, help="Study directory (default results/studies/<name>)"),
+    samples: int | None = typer.Option(None, min=1, help="Samples to run (default: the study file's)"),
+    jobs: int = typer.Option(1, min=1, help="Runs at once on this machine"),
+    ray: str | None = typer.Option(
+        None, help="Run on Ray: `auto` (this machine's cluster, or a local one) or an address"
+    ),
+    rerun: str = typer.Option("", help="Also run again: failed, interrupted or all (comma-separated)"),
+    plots: str = typer.Option("failed", help="Per-run plots: none, failed (runs that did not succeed) or all"),
+    quiet: bool = typer.Option(False, help="No progress bars"),
+):
+    """Run a study (randomised scenes x grid, resumable) and write study.parquet and its report; or, as `harmony
+    study report DIR`, write the report of a study directory again."""
+    from harmony_cli.experiment.interrupts import RunInterrupted
+    from harmony_cli.study.report import success_rates, write_report
+    from harmony_cli.study.runner import PLOTS, Options, run_study
+
+    if target == "report":
+        if study_dir is None or not (study_dir / "study.parquet").is_file():
+            fail(f"study report: {str(study_dir)!r} is not a study directory (no study.parquet in it)")
+            return
+        for path in write_report(study_dir):
+            typer.echo(literal(str(path)))
+        return
+    if study_dir is not None:
+        fail(f"study: unexpected argument {str(study_dir)!r}; `harmony study STUDY.yaml` or `harmony study report DIR`")
+    if plots not in PLOTS:
+        fail(f"--plots: {plots!r} is not valid; choose one of: {', '.join(PLOTS)}")
+    options = Options(out, jobs, ray, samples, tuple(r for r in rerun.split(",") if r), plots, not quiet)
+    try:
+        outcome = run_study(Path(target), options)
+    except ScenarioError as exc:
+        fail(str(exc))
+    except RunInterrupted as exc:
+        say(
+            "interrupted:",
+            "yellow",
+            f"{exc.signal_name}; the runs so far and study.parquet are in {options.out or 'results/studies'}",
+        )
+        raise typer.Exit(exc.exit_code) from None
+    for path in write_report(outcome.out):
+        typer.echo(literal(str(path)))
+    for r in success_rates(outcome.table).itertuples():
+        typer.echo(
+            f"{r.point}: success {r.successes}/{r.runs} ({100 * r.rate:.0f} %, Wilson 95 % "
+            f"{100 * r.low:.0f}-{100 * r.high:.0f} %)" + (f", {r.no_result} without a result" if r.no_result else "")
+        )
+    typer.echo(f"{outcome.ran} runs ran, {outcome.skipped} found done; {outcome.resamples} scene draws refused")

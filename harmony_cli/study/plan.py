@@ -1,0 +1,78 @@
+"""The runs of a study: every sample crossed with every grid point, each keyed by a hash of its resolved scenario
+and the code version, so a study started again finds the runs it has (and runs again what changed)."""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+import harmony_cli
+from harmony_cli.scenario import Scenario, scenario_yaml
+from harmony_cli.study.sampling import Sample, Sampler, point_overrides
+from harmony_cli.study.spec import StudySpec
+
+KEY_CHARS = 16
+
+
+@cache
+def code_version() -> str:
+    """harmony's version and a hash of its source (Python files and robot presets): any edit changes it."""
+    root = Path(harmony_cli.__file__).parent
+    digest = hashlib.sha256()
+    for path in sorted(p for p in root.rglob("*") if p.suffix in (".py", ".yaml", ".urdf") and p.is_file()):
+        digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
+    return f"{getattr(harmony_cli, '__version__', '0')}+{digest.hexdigest()[:12]}"
+
+
+@dataclass(frozen=True)
+class PlannedRun:
+    sample: Sample
+    point: dict[str, Any]  # grid field -> value ({} without a grid)
+    overrides: list[str]  # everything `harmony run` gets after the base scenario, in order
+    key: str  # hash of the resolved scenario and the code version
+
+    @property
+    def label(self) -> str:
+        """The grid point as a name (`base` without a grid)."""
+        return point_label(self.point)
+
+    @property
+    def name(self) -> str:
+        """The run directory's name: readable, and unique per key."""
+        grid = "" if not self.point else f"-{self.label}"
+        return f"s{self.sample.index:05d}{grid}-{self.key[:8]}"
+
+
+def point_label(point: dict[str, Any]) -> str:
+    return "_".join(f"{k.split('.')[-1]}-{v}" for k, v in point.items()) or "base"
+
+
+def run_key(scenario: Scenario, scenario_path: Path) -> str:
+    """A hash of the resolved scenario and the code version. The robot's files count by their content, not where
+    they lie, so a study keeps its keys in another checkout or on another machine."""
+    resolved = yaml.safe_load(scenario_yaml(scenario))
+    robot = resolved["robot"]
+    urdf = scenario_path.parent / robot.pop("urdf")
+    robot["urdf_sha256"] = hashlib.sha256(urdf.read_bytes()).hexdigest() if urdf.is_file() else str(urdf)
+    robot["package_paths"] = len(robot["package_paths"])  # meshes: not hashed (large, and they do not steer)
+    text = yaml.safe_dump(resolved, sort_keys=True)
+    return hashlib.sha256(f"{text}\0{code_version()}".encode()).hexdigest()[:KEY_CHARS]
+
+
+def plan_runs(spec: StudySpec, sampler: Sampler, samples: int | None = None, progress=None) -> list[PlannedRun]:
+    """Every (sample, grid point) run in sample order; `progress(done, total)` after each sample."""
+    total = samples if samples is not None else spec.samples
+    runs = []
+    for i in range(total):
+        sample = sampler.sample(i)
+        for point in sampler.points:
+            overrides = sample.overrides + point_overrides(point)
+            runs.append(PlannedRun(sample, point, overrides, run_key(sampler.scenario(overrides), sampler.path)))
+        if progress is not None:
+            progress(i + 1, total)
+    return runs

@@ -1,0 +1,217 @@
+"""Impossible scenes, refused before they run: an obstacle overlapping a table, the box (where it starts or at its
+goal) or the robot's start (within the obstacle's margin, which the whole-body MPC must keep); a hand target that
+no collision-free base pose brings within the arm's reach.
+
+Geometry is planar where the bodies are vertical prisms (tables, boxes, cylinders, the base footprint) and exact
+for them; heights are compared as intervals. The reach test is a necessary condition only (the arm's links laid
+end to end from its first moving joint): a scene it passes may still be beyond what the controller can do."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import casadi as cs
+import numpy as np
+
+from harmony_cli.maths.shapes import Shape, obstacle_shape, table_legs, table_shape, table_top_pose
+from harmony_cli.robot.model import Robot
+from harmony_cli.scenario import Scenario, robot_of
+from harmony_cli.scenario.task import RelativeTarget
+
+BASE_YAWS = 8  # base headings tried at each candidate position
+BASE_STEP = 0.05  # [m] spacing of candidate base positions
+
+
+def planar_gap(a: Shape, b: Shape) -> float:
+    """Signed distance in x, y between two vertical shapes (negative: their outlines overlap)."""
+    if a.kind == "box" and b.kind == "box":
+        return _box_gap(a, b)
+    circle, other = (a, b) if a.kind != "box" else (b, a)
+    return float(_planar_distance(other, circle.centre[None, :2])[0] - circle.half[0])
+
+
+def _planar_distance(shape: Shape, xy: np.ndarray) -> np.ndarray:
+    points = np.column_stack([xy, np.full(len(xy), shape.centre[2])])
+    flat = Shape("cylinder" if shape.kind == "sphere" else shape.kind, shape.centre, shape.yaw, shape.half)
+    return flat.distance(points)[0]
+
+
+def _corners(box: Shape) -> np.ndarray:
+    c, s = np.cos(box.yaw), np.sin(box.yaw)
+    local = np.array([[x, y] for x in (-1, 1) for y in (-1, 1)]) * box.half[:2]
+    return box.centre[:2] + local @ np.array([[c, s], [-s, c]])
+
+
+def _box_gap(a: Shape, b: Shape) -> float:
+    """Separating axes for the overlap depth; separated, the nearest pair includes a corner of one of them."""
+    ca, cb = _corners(a), _corners(b)
+    depth = np.inf
+    for yaw in (a.yaw, b.yaw):
+        for axis in (np.array([np.cos(yaw), np.sin(yaw)]), np.array([-np.sin(yaw), np.cos(yaw)])):
+            pa, pb = ca @ axis, cb @ axis
+            overlap = min(pa.max(), pb.max()) - max(pa.min(), pb.min())
+            if overlap <= 0:
+                return float(min(_planar_distance(b, ca).min(), _planar_distance(a, cb).min()))
+            depth = min(depth, overlap)
+    return float(-depth)
+
+
+def _heights_meet(a: tuple[float, float], b: tuple[float, float]) -> bool:
+    return a[0] < b[1] and b[0] < a[1]
+
+
+def _z_range(shape: Shape) -> tuple[float, float]:
+    return shape.centre[2] - shape.half[2], shape.centre[2] + shape.half[2]
+
+
+@dataclass(frozen=True)
+class Reach:
+    """Where a hand can be, in the base frame: within `length` of `shoulder` (the first moving joint's origin)."""
+
+    shoulder: np.ndarray  # (3,) at home, base at the origin
+    length: float  # [m] the links from there to the hand laid end to end (prismatic travel included)
+
+
+def arm_reach(robot: Robot, hand: int) -> Reach:
+    urdf = robot.model.urdf
+    chain = urdf.get_chain(urdf.get_root(), robot.end_effectors[hand], links=False)
+    base = {robot.joint_names[i] for i in robot.base_joints}
+    moving = [j for j in chain if j not in base and urdf.joint_map[j].type != "fixed"]
+    q = robot.home.copy()
+    q[list(robot.base_joints)] = 0.0
+    start = chain.index(moving[0]) if moving else len(chain) - 1
+    links = [urdf.joint_map[j].child for j in chain[start:]]
+    points = [np.array(cs.DM(robot.model.get_global_link_position(link, q))).ravel() for link in links]
+    length = float(sum(np.linalg.norm(b - a) for a, b in zip(points, points[1:])))
+    for j in chain[start:]:
+        joint = urdf.joint_map[j]
+        if joint.type == "prismatic" and joint.limit is not None:
+            length += max(abs(joint.limit.lower), abs(joint.limit.upper))
+    return Reach(points[0], length)
+
+
+class SceneCheck:
+    """The scene check of a study (each robot's reach worked out once)."""
+
+    def __init__(self, scenario_dir: Path, clearance: float = 0.0):
+        self.scenario_dir, self.clearance = scenario_dir, clearance
+        self._reach: dict[str, list[Reach]] = {}
+
+    def __call__(self, scenario: Scenario) -> str | None:
+        """Why the scene is impossible, or None."""
+        return self._overlap(scenario) or self._unreachable(scenario)
+
+    def reach(self, scenario: Scenario) -> list[Reach]:
+        key = scenario.robot.model_dump_json(exclude={"base_pose"})  # where it starts does not change its arms
+        if key not in self._reach:
+            robot = robot_of(scenario, self.scenario_dir)
+            self._reach[key] = [arm_reach(robot, h) for h in range(len(robot.end_effectors))]
+        return self._reach[key]
+
+    def _overlap(self, scenario: Scenario) -> str | None:
+        world, robot = scenario.world, scenario.robot
+        footprint = _footprint(robot.footprint, robot.base_pose)
+        bodies: list[tuple[str, Shape]] = [(f"table {t.name}", table_shape(t)) for t in world.tables]
+        if world.box is not None:
+            size, half = np.asarray(world.box.size), np.asarray(world.box.size) / 2
+            yaw = np.deg2rad(world.box.yaw_deg)
+            bodies.append(("the box", Shape("box", np.asarray(world.box.position), yaw, half)))
+            if world.box.goal is not None:
+                bodies.append(("the box at its goal", Shape("box", np.asarray(world.box.goal), yaw, size / 2)))
+        for obstacle in world.obstacles:
+            shape = obstacle_shape(obstacle)
+            for name, body in bodies:
+                gap = planar_gap(shape, body)
+                if _heights_meet(_z_range(shape), _z_range(body)) and gap < self.clearance:
+                    return f"obstacle {obstacle.name} overlaps {name} ({_gap_text(gap)})"
+            for circle in footprint:
+                gap = planar_gap(shape, circle)
+                if gap < obstacle.margin:
+                    return (
+                        f"obstacle {obstacle.name} is {_gap_text(gap)} from the robot's start, "
+                        f"inside its margin {obstacle.margin:g} m"
+                    )
+        return None
+
+    def _unreachable(self, scenario: Scenario) -> str | None:
+        if scenario.task is None:
+            return None
+        blocked, reach = _static_outlines(scenario), self.reach(scenario)
+        for phase in scenario.task.phases:
+            for h, label in enumerate(scenario.robot.end_effectors):
+                target = _target_position(phase.hands.get(label), scenario)
+                if target is not None and not _reachable(reach[h], target, blocked, scenario.robot.footprint):
+                    return (
+                        f"phase {phase.name}: the {label} hand's target {np.round(target, 3).tolist()} is out of "
+                        f"reach from every collision-free base pose"
+                    )
+        return None
+
+
+def _reachable(reach: Reach, target: np.ndarray, blocked: list, footprint: list) -> bool:
+    """Some base pose (a grid of positions x BASE_YAWS headings) has its footprint clear of `blocked` and the
+    target within the arm's reach."""
+    height = target[2] - reach.shoulder[2]
+    if abs(height) > reach.length:
+        return False
+    radius = np.sqrt(reach.length**2 - height**2)  # of the circle of shoulder positions in the target's plane
+    span = np.arange(
+        -radius - np.linalg.norm(reach.shoulder[:2]), radius + np.linalg.norm(reach.shoulder[:2]), BASE_STEP
+    )
+    grid = target[:2] + np.stack(np.meshgrid(span, span), axis=-1).reshape(-1, 2)
+    circles = np.asarray(footprint, dtype=float).reshape(-1, 3)
+    extent = np.abs(span).max() * np.sqrt(2) + np.hypot(circles[:, 0], circles[:, 1]).max() + circles[:, 2].max()
+    near_target = [  # shapes no candidate footprint can touch drop out
+        (shape, margin)
+        for shape, margin in blocked
+        if np.hypot(*(shape.centre[:2] - target[:2])) <= extent + np.linalg.norm(shape.half[:2]) + margin
+    ]
+    for yaw in np.linspace(0, 2 * np.pi, BASE_YAWS, endpoint=False):
+        turn = np.array([[np.cos(yaw), np.sin(yaw)], [-np.sin(yaw), np.cos(yaw)]])  # row vectors turned by yaw
+        near = grid[np.linalg.norm(grid + reach.shoulder[:2] @ turn - target[:2], axis=1) <= radius]
+        centres = (near[:, None, :] + (circles[:, :2] @ turn)[None]).reshape(-1, 2)  # (positions x circles, 2)
+        clear = np.ones(len(centres), dtype=bool)
+        for shape, margin in near_target:
+            clear &= _planar_distance(shape, centres) - np.tile(circles[:, 2], len(near)) >= margin
+        if clear.reshape(len(near), len(circles)).all(axis=1).any():
+            return True
+    return False
+
+
+def _footprint(circles, pose) -> list[Shape]:
+    """The base footprint's circles in the world at a pose (x, y, yaw [deg])."""
+    x, y, yaw = pose[0], pose[1], np.deg2rad(pose[2])
+    c, s = np.cos(yaw), np.sin(yaw)
+    return [
+        Shape("cylinder", np.array([x + c * px - s * py, y + s * px + c * py, 0.0]), 0.0, np.array([r, r, 1.0]))
+        for px, py, r in circles
+    ]
+
+
+def _static_outlines(scenario: Scenario) -> list[tuple[Shape, float]]:
+    """What a base must keep clear of, with the margin: static obstacles and table legs."""
+    shapes = [(obstacle_shape(o), o.margin) for o in scenario.world.obstacles if o.motion is None]
+    legs = [leg for t in scenario.world.tables for leg in table_legs(t)]
+    return shapes + [(leg, scenario.robot.base_margin) for leg in legs]
+
+
+def _target_position(target, scenario: Scenario) -> np.ndarray | None:
+    if target is None:
+        return None
+    if not isinstance(target, RelativeTarget):
+        return np.asarray(target, dtype=float)
+    if target.relative_to == "box":
+        box = scenario.world.box
+        assert box is not None  # the scenario's checks guarantee it
+        origin, yaw = np.asarray(box.position, dtype=float), float(np.deg2rad(box.yaw_deg))  # as the box starts
+    else:
+        table = next(t for t in scenario.world.tables if t.name == target.relative_to)
+        origin, yaw = table_top_pose(table)
+    c, s = np.cos(yaw), np.sin(yaw)
+    x, y, z = target.offset
+    return origin + [c * x - s * y, s * x + c * y, z]
+
+
+def _gap_text(gap: float) -> str:
+    return f"{100 * gap:.1f} cm" if gap >= 0 else f"overlapping by {-100 * gap:.1f} cm"

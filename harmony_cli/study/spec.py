@@ -1,0 +1,107 @@
+"""A study file: a base scenario, how many samples, a seed, distributions over scenario fields and optional grid
+axes crossed with them. Read through the same gate as scenarios (one line per mistake)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from pydantic import Field, PositiveInt, ValidationError, model_validator
+
+from harmony_cli.scenario.base import Strict
+from harmony_cli.scenario.errors import ScenarioError, one_line
+from harmony_cli.scenario.source import load_yaml_file
+
+MAX_SAMPLES = 100_000
+KINDS = ("uniform", "normal", "choice", "integers", "yaw_deg")
+
+Value = float | list[float]
+
+
+class Distribution(Strict):
+    """One of: `uniform: [low, high]` (numbers or vectors of one length), `normal: [mean, std]` (likewise),
+    `choice: [a, b, ...]` (any values, equally likely), `integers: [low, high]` (both included), `yaw_deg:
+    [low, high]` (an angle drawn in degrees, wrapped into [-180, 180)). `relative: true` adds the draw to the base
+    scenario's value (numbers and vectors)."""
+
+    uniform: tuple[Value, Value] | None = None
+    normal: tuple[Value, Value] | None = None
+    choice: list[Any] | None = Field(None, min_length=1)
+    integers: tuple[int, int] | None = None
+    yaw_deg: tuple[float, float] | None = None
+    relative: bool = Field(False, description="add the draw to the base scenario's value")
+
+    @model_validator(mode="after")
+    def _one_kind(self) -> Distribution:
+        given = [k for k in KINDS if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise ValueError(f"give exactly one of {', '.join(KINDS)} (got {', '.join(given) or 'none'})")
+        low, high = getattr(self, given[0]) if given[0] != "choice" else (0, 0)
+        if isinstance(low, list) != isinstance(high, list) or (
+            isinstance(low, list) and isinstance(high, list) and len(low) != len(high)
+        ):
+            raise ValueError(f"{given[0]}: {low!r} and {high!r} must both be numbers or vectors of one length")
+        if given[0] == "normal":
+            if min(high if isinstance(high, list) else [high]) < 0:
+                raise ValueError(f"normal: the standard deviation {high!r} must be >= 0")
+        elif given[0] != "choice" and any(h < lo for lo, h in _pairs(low, high)):
+            raise ValueError(f"{given[0]}: low {low!r} is above high {high!r}")
+        if self.relative and given[0] == "choice":
+            raise ValueError("relative: a choice is a value, not an offset")
+        return self
+
+    @property
+    def kind(self) -> str:
+        return next(k for k in KINDS if getattr(self, k) is not None)
+
+
+def _pairs(low: Value, high: Value) -> list[tuple[float, float]]:
+    if isinstance(low, list) and isinstance(high, list):
+        return list(zip(low, high, strict=True))
+    return [(float(low), float(high))]  # type: ignore[arg-type]
+
+
+class SceneCheck(Strict):
+    """Impossible samples are rejected and drawn again (sample i keeps its own random stream)."""
+
+    enabled: bool = True
+    max_tries: PositiveInt = Field(100, le=10_000, description="draws per sample before the study is refused")
+    clearance: float = Field(0.0, ge=0, description="extra gap every obstacle keeps from tables and the box [m]")
+
+
+class StudySpec(Strict):
+    name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$", description="also the default output directory's name")
+    description: str = ""
+    scenario: str = Field(description="the base scenario file, relative to the study file")
+    set: list[str] = Field([], description="overrides applied to the base scenario, as `--set` takes them")
+    samples: PositiveInt = Field(le=MAX_SAMPLES)
+    seed: int = Field(0, ge=0)
+    vary: dict[str, Distribution] = Field(
+        {}, description="scenario field (dotted; list items by index or name) -> its distribution"
+    )
+    grid: dict[str, list[Any]] = Field({}, description="scenario field -> values, each crossed with every sample")
+    check: SceneCheck = SceneCheck()
+
+    @model_validator(mode="after")
+    def _axes(self) -> StudySpec:
+        for key, values in self.grid.items():
+            if not values:
+                raise ValueError(f"grid {key!r} has no values")
+            if key in self.vary:
+                raise ValueError(f"{key!r} is both varied and a grid axis; choose one")
+        return self
+
+
+def load_study(path: Path) -> StudySpec:
+    """Read and validate a study file; ScenarioError with one line naming the file, field and value."""
+    raw = load_yaml_file(path)
+    if not isinstance(raw, dict):
+        raise ScenarioError(f"{path}: expected a mapping at the top level, got {type(raw).__name__}")
+    try:
+        return StudySpec.model_validate(raw)
+    except ValidationError as err:
+        raise ScenarioError(one_line(path, err, StudySpec)) from None
+
+
+def base_scenario_path(path: Path, spec: StudySpec) -> Path:
+    return (path.parent / spec.scenario).resolve()

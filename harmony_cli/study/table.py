@@ -1,0 +1,94 @@
+"""A study's results as data: one row per run, read back from its run directory (its summary.json is the record),
+written to Parquet for pandas or DuckDB."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from harmony_cli.study.plan import PlannedRun
+
+TABLE = "study.parquet"
+NOT_RUN = ("interrupted", "killed", "running", "not run")  # statuses that are no result (the run did not end)
+
+# a completed run's task failure, the first that applies (summary.json `task` fields)
+TASK_FAILURES = (
+    ("dropped", lambda t: t.get("box_dropped") is True),
+    ("collision", lambda t: t.get("clear_of_obstacles") is False),
+    ("box tipped", lambda t: t.get("box_upright") is False),
+    ("phase timeout", lambda t: any(p.get("completed_s") is None for p in t.get("phases", []))),
+    ("box off goal", lambda t: t.get("box_goal_error_m") is not None and t.get("success") is False),
+    ("solver failures", lambda t: t.get("all_solves_succeeded") is False),
+)
+
+
+def outcome(summary: dict) -> str:
+    """success | a task failure (dropped, collision, ...) | `run failed: <category>` | interrupted | not run."""
+    status = summary.get("status", "not run")
+    if status in NOT_RUN:
+        return "interrupted" if status != "not run" else status
+    if status != "completed":
+        return f"run failed: {summary.get('failure', 'error')}"
+    task = summary.get("task")
+    if task is None:  # a hand trajectory: success is every solve succeeding
+        return "success" if summary.get("failed_solves") == 0 else "solver failures"
+    if task.get("success"):
+        return "success"
+    return next((name for name, applies in TASK_FAILURES if applies(task)), "unsuccessful")
+
+
+def flatten(value: Any, prefix: str) -> dict[str, Any]:
+    """Scalars of a summary under dotted names: dicts by key, lists of named dicts by name, other lists by index."""
+    if isinstance(value, dict):
+        return {k: v for key, item in value.items() for k, v in flatten(item, f"{prefix}.{key}").items()}
+    if isinstance(value, list):
+        named = all(isinstance(i, dict) and "name" in i for i in value) and value
+        return {
+            k: v
+            for n, item in enumerate(value)
+            for k, v in flatten(
+                {a: b for a, b in item.items() if a != "name"} if named else item,
+                f"{prefix}.{item['name'] if named else n}",
+            ).items()
+        }
+    return {prefix: value}
+
+
+def run_row(run: PlannedRun, run_dir: Path) -> dict[str, Any]:
+    try:
+        summary = json.loads((run_dir / "summary.json").read_text())
+    except (OSError, ValueError):
+        summary = {"status": "not run" if not run_dir.is_dir() else "killed"}
+    row: dict[str, Any] = {
+        "sample": run.sample.index,
+        "point": run.label,
+        "key": run.key,
+        "run_dir": str(run_dir),
+        "status": summary.get("status"),
+        "failure": summary.get("failure"),
+        "outcome": outcome(summary),
+        "success": outcome(summary) == "success" if summary.get("status") not in NOT_RUN else None,
+        "reason": summary.get("reason") or summary.get("error"),
+        "resamples": len(run.sample.rejected),
+    }
+    row |= {f"grid.{k}": v for k, v in run.point.items()}
+    row |= flatten(run.sample.values, "vary")
+    row |= {k: v for k, v in flatten(summary, "summary").items() if k not in ("summary.status", "summary.reason")}
+    return row
+
+
+def write_table(rows: list[dict[str, Any]], path: Path) -> pd.DataFrame:
+    """The rows as a Parquet file (written whole, then renamed: a reader never sees half a file)."""
+    table = pd.DataFrame(rows)
+    for column in table.columns:  # a column Parquet cannot type (e.g. numbers and text) is kept as text
+        kinds = {type(v) for v in table[column] if v is not None and v == v}
+        if (len(kinds) > 1 and kinds - {int, float, bool}) or kinds & {list, dict}:
+            table[column] = table[column].map(lambda v: None if v is None else json.dumps(v))
+    part = path.with_suffix(".parquet.part")
+    table.to_parquet(part, index=False)
+    os.replace(part, path)
+    return table

@@ -1,0 +1,165 @@
+"""Studies: samples reproducible whatever their number, impossible scenes drawn again and counted, one Parquet row
+per run carrying its summary's scalars, resume, and Ray giving the process pool's rows. The runs are the smoke box
+lift cut to 0.4 s (studies/smoke_box_lift.yaml)."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from conftest import ROOT
+from typer.testing import CliRunner
+
+from harmony_cli.cli import app
+from harmony_cli.maths.shapes import obstacle_shape, table_shape
+from harmony_cli.study.plan import plan_runs
+from harmony_cli.study.report import wilson, write_report
+from harmony_cli.study.runner import Options, run_study
+from harmony_cli.study.sampling import Sampler
+from harmony_cli.study.scene_check import SceneCheck, planar_gap
+from harmony_cli.study.spec import base_scenario_path, load_study
+from harmony_cli.study.table import TABLE, flatten
+
+STUDY = ROOT / "studies" / "smoke_box_lift.yaml"
+TIMING = ("_ms", "time_s", "wall_clock", "run_dir")  # columns that differ between two runs of one scene
+
+
+def _sampler(path: Path = STUDY) -> tuple:
+    spec = load_study(path)
+    scenario = base_scenario_path(path, spec)
+    return spec, Sampler(spec, scenario, SceneCheck(scenario.parent, spec.check.clearance))
+
+
+def test_sample_i_is_the_same_scene_whether_the_study_has_5_or_50_samples():
+    spec, sampler = _sampler()
+    five, fifty = plan_runs(spec, sampler, 5), plan_runs(spec, sampler, 50)
+    assert [r.overrides for r in five] == [r.overrides for r in fifty[:5]]
+    assert [r.key for r in five] == [r.key for r in fifty[:5]]
+    assert len({r.key for r in fifty}) == 50  # and the scenes differ
+
+
+def test_a_draw_with_an_obstacle_on_the_table_is_refused_drawn_again_and_counted(tmp_path):
+    # a post anywhere in a strip half of which lies under the table top (x 1.2-2.0 at this table's yaw)
+    path = tmp_path / "study.yaml"
+    path.write_text(
+        f"name: posts\nscenario: {ROOT / 'scenarios/smoke/box_lift.yaml'}\nsamples: 12\nseed: 3\n"
+        'set: ["sim.duration=0.4", "world.obstacles=[{name: post, shape: cylinder, position: [1.0, 1.5, 0.5], '
+        'size: [0.2, 0.2, 1.0]}]"]\n'
+        "vary:\n  world.obstacles.post.position: {uniform: [[0.6, 0.5, 0.5], [2.4, 0.9, 0.5]]}\n"
+    )
+    spec, sampler = _sampler(path)
+    samples = [sampler.sample(i) for i in range(12)]
+    refused = [why for s in samples for why in s.rejected]
+    assert refused and all("obstacle post overlaps table table" in why for why in refused), refused
+    for s in samples:  # what was kept is clear of the table
+        scenario = sampler.scenario(s.overrides)
+        assert sampler.check(scenario) is None
+        assert planar_gap(obstacle_shape(scenario.world.obstacles[0]), table_shape(scenario.world.tables[0])) >= 0
+    again = _sampler(path)[1]
+    assert [len(again.sample(i).rejected) for i in range(12)] == [len(s.rejected) for s in samples]
+
+
+def test_the_table_has_one_row_per_run_with_every_scalar_of_its_summary_and_resume_runs_nothing(tmp_path):
+    out = tmp_path / "study"
+    first = run_study(STUDY, Options(out=out, samples=3, progress=False, plots="none"))
+    table = pd.read_parquet(out / TABLE)
+    assert (first.ran, first.skipped, len(table)) == (3, 0, 3) and list(table["sample"]) == [0, 1, 2]
+    for row in table.to_dict("records"):
+        summary = json.loads((Path(row["run_dir"]) / "summary.json").read_text())
+        scalars = {
+            k: v for k, v in flatten(summary, "summary").items() if k not in ("summary.status", "summary.reason")
+        }
+        assert scalars and all(_same(row[k], v) for k, v in scalars.items()), row["run_dir"]
+        assert row["status"] == summary["status"] == "completed" and row["outcome"] in ("success", "phase timeout")
+    stamps = {p: p.stat().st_mtime_ns for p in out.glob("runs/*/summary.json")}
+    second = run_study(STUDY, Options(out=out, samples=3, progress=False, plots="none"))
+    assert (second.ran, second.skipped) == (0, 3)
+    assert {p: p.stat().st_mtime_ns for p in out.glob("runs/*/summary.json")} == stamps
+    assert (out / "report.md") in write_report(out) and "| base | 3 |" in (out / "report.md").read_text()
+
+
+def test_a_local_ray_instance_gives_the_rows_of_the_process_pool(tmp_path):
+    ray = pytest.importorskip("ray")
+    pool = run_study(STUDY, Options(out=tmp_path / "pool", samples=4, jobs=2, progress=False, plots="none"))
+    try:
+        ray.init(num_cpus=2, include_dashboard=False, logging_level="ERROR", log_to_driver=False)
+        on_ray = run_study(STUDY, Options(out=tmp_path / "ray", samples=4, ray="auto", progress=False, plots="none"))
+    finally:
+        ray.shutdown()
+    assert not ray.is_initialized()
+    columns = [c for c in pool.table.columns if not any(t in c for t in TIMING)]
+    assert set(columns) <= set(on_ray.table.columns) and len(columns) > 50
+    left = pool.table.sort_values("sample")[columns].reset_index(drop=True)
+    right = on_ray.table.sort_values("sample")[columns].reset_index(drop=True)
+    pd.testing.assert_frame_equal(left, right)
+
+
+def test_the_wilson_interval_matches_its_closed_form_at_known_points():
+    assert wilson(0, 10) == pytest.approx((0.0, 0.27753), abs=1e-5)  # z^2 / (n + z^2)
+    low, high = wilson(8, 10)
+    assert (low, high) == pytest.approx((0.49016, 0.94332), abs=1e-5)
+    assert np.isnan(wilson(0, 0)[0])
+
+
+def _same(a, b) -> bool:
+    if isinstance(b, float) and np.isnan(b):
+        return a is None or np.isnan(a)
+    return a == b or (isinstance(b, float) and a == pytest.approx(b, rel=1e-12))
+
+
+BAD_STUDIES = [  # (what the study file gets, pieces of the one line that refuses it)
+    ("samples: 4", "samples: 0", ["samples: 0", "greater than 0"]),
+    ("seed: 7", "seed: 7\nsamplez: 3", ["samplez", "unknown key", "valid keys"]),
+    ("world.box.mass: {uniform: [0.5, 1.5]}", "world.box.mass: {uniform: [1.5, 0.5]}", ["low 1.5 is above high 0.5"]),
+    ("world.box.mass: {uniform: [0.5, 1.5]}", "world.box.mas: {uniform: [0.5, 1.5]}", ["vary", "world.box.mas"]),
+    ("world.box.mass: {uniform: [0.5, 1.5]}", "world.box.mass: {choice: [1], relative: true}", ["relative"]),
+    (
+        "world.box.mass: {uniform: [0.5, 1.5]}",
+        "world.box.mass: {uniform: [0.5, 1.5], normal: [1, 0.1]}",
+        ["exactly one"],
+    ),
+    ("world.box.mass: {uniform: [0.5, 1.5]}", "world.box.mass: {uniform: [-2.0, -1.0]}", ["no possible scene", "mass"]),
+    ("../scenarios/smoke/box_lift.yaml", "../scenarios/smoke/nope.yaml", ["nope.yaml", "file not found"]),
+]
+
+
+@pytest.mark.parametrize(("old", "new", "pieces"), BAD_STUDIES)
+def test_a_bad_study_file_gets_one_line_and_exit_code_2(tmp_path, old, new, pieces):
+    text = STUDY.read_text()
+    assert old in text
+    path = tmp_path / "study.yaml"
+    path.write_text(text.replace(old, new).replace("../scenarios", str(ROOT / "scenarios")))
+    result = CliRunner().invoke(app, ["study", str(path), "--out", str(tmp_path / "out"), "--quiet"])
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 2 and len(lines) == 1 and "Traceback" not in result.output, result.output
+    assert all(piece in lines[0] for piece in pieces), lines[0]
+    assert not (tmp_path / "out" / "runs").exists()  # nothing ran
+
+
+def test_sigterm_to_a_study_ends_its_runs_cleanly_keeps_the_table_and_a_rerun_is_asked_for(tmp_path):
+    path = tmp_path / "study.yaml"
+    long = STUDY.read_text().replace('"sim.duration=0.4"', '"sim.duration=3600"').replace("samples: 4", "samples: 2")
+    path.write_text(long.replace("../scenarios", str(ROOT / "scenarios")))
+    out = tmp_path / "out"
+    harmony = Path(sys.executable).with_name("harmony")
+    command = [str(harmony), "study", str(path), "--out", str(out), "--jobs", "2", "--quiet", "--plots", "none"]
+    proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while len([p for p in out.glob("runs/*/steps.jsonl") if p.stat().st_size]) < 2:
+        assert proc.poll() is None and time.time() < deadline, proc.communicate()
+        time.sleep(0.1)
+    proc.send_signal(signal.SIGTERM)
+    _, stderr = proc.communicate(timeout=90)
+    assert proc.returncode == 143 and stderr.strip().splitlines()[-1].startswith("interrupted: SIGTERM"), stderr
+    table = pd.read_parquet(out / TABLE)
+    assert list(table["status"]) == ["interrupted"] * 2 and list(table["outcome"]) == ["interrupted"] * 2
+    assert table["success"].isna().all()  # no result: not counted as a failure
+    again = run_study(path, Options(out=out, progress=False, plots="none"))
+    assert (again.ran, again.skipped) == (0, 2)  # interrupted runs run again only when asked (--rerun interrupted)
