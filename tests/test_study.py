@@ -21,7 +21,7 @@ from harmony_cli.cli import app
 from harmony_cli.maths.shapes import obstacle_shape, table_shape
 from harmony_cli.study.plan import plan_runs
 from harmony_cli.study.report import wilson, write_report
-from harmony_cli.study.runner import Options, run_study
+from harmony_cli.study.runner import Options, plan_study, run_study
 from harmony_cli.study.sampling import Sampler
 from harmony_cli.study.scene_check import SceneCheck, planar_gap
 from harmony_cli.study.spec import base_scenario_path, load_study
@@ -161,5 +161,6 @@ def test_sigterm_to_a_study_ends_its_runs_cleanly_keeps_the_table_and_a_rerun_is
     table = pd.read_parquet(out / TABLE)
     assert list(table["status"]) == ["interrupted"] * 2 and list(table["outcome"]) == ["interrupted"] * 2
     assert table["success"].isna().all()  # no result: not counted as a failure
-    again = run_study(path, Options(out=out, progress=False, plots="none"))
-    assert (again.ran, again.skipped) == (0, 2)  # interrupted runs run again only when asked (--rerun interrupted)
+    again = plan_study(path, Options(out=out, progress=False))  # started again: nothing to run unasked
+    assert len(again.runs) == 2 and again.todo == []
+    assert len(plan_study(path, Options(out=out, progress=False, rerun=("interrupted",))).todo) == 2

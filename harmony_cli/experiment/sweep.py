@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 import json
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from pathlib import Path
 
 from rich.progress import Progress
@@ -12,6 +12,7 @@ from rich.text import Text
 
 from harmony_cli.experiment.interrupts import RunInterrupted, signals_end_the_run
 from harmony_cli.experiment.run import run_scenario
+from harmony_cli.experiment.workers import end_workers, worker_pool
 from harmony_cli.scenario import ScenarioError, apply_overrides
 
 
@@ -57,7 +58,7 @@ def run_grid(path: str | Path, axes: list[str], base_overrides: list[str], out: 
 def _run_pool(jobs_list: list, jobs: int, bar: Progress, task) -> None:
     """The grid on `jobs` worker processes. A signal to this process ends every worker's run cleanly (each
     worker keeps its run's steps and says interrupted), cancels the points not started, then propagates."""
-    with signals_end_the_run(), ProcessPoolExecutor(max_workers=jobs) as pool:
+    with signals_end_the_run(), worker_pool(jobs) as pool:
         try:
             futures = {pool.submit(_run_quiet, p, o, d, jobs): d for p, o, d in jobs_list}
             for future in as_completed(futures):
@@ -65,9 +66,7 @@ def _run_pool(jobs_list: list, jobs: int, bar: Progress, task) -> None:
                     bar.console.print(Text(f"{futures[future].name} failed: {future.exception()}", style="red"))
                 bar.advance(task)
         except RunInterrupted:
-            for worker in list(getattr(pool, "_processes", {}).values()):
-                worker.terminate()  # SIGTERM: the worker's run writes its results and stops
-            pool.shutdown(wait=True, cancel_futures=True)
+            end_workers(pool)
             raise
 
 

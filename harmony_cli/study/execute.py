@@ -12,13 +12,14 @@ import json
 import logging
 import tarfile
 from collections.abc import Callable, Iterable
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
 from harmony_cli.experiment.interrupts import RunInterrupted, signals_end_the_run
 from harmony_cli.experiment.pipeline import RunFailed
 from harmony_cli.experiment.run import run_scenario
+from harmony_cli.experiment.workers import end_workers, worker_pool
 from harmony_cli.scenario import ScenarioError
 
 RUN_FILE = "study_run.json"
@@ -77,14 +78,12 @@ def run_here(jobs: Iterable[Job], done: Done) -> None:
 
 
 def run_pool(jobs: list[Job], workers: int, done: Done) -> None:
-    with signals_end_the_run(), ProcessPoolExecutor(max_workers=workers) as pool:
+    with signals_end_the_run(), worker_pool(workers) as pool:
         try:
             for future in as_completed([pool.submit(run_job, job) for job in jobs]):
                 done(future.result())
         except RunInterrupted:
-            for worker in list(getattr(pool, "_processes", {}).values()):
-                worker.terminate()  # SIGTERM: the worker's run writes its results and stops
-            pool.shutdown(wait=True, cancel_futures=True)
+            end_workers(pool)
             raise
 
 

@@ -77,9 +77,21 @@ def _rate(rows: dict[str, dict]) -> str:
     return f"success {sum(results)}/{len(results)}" if results else ""
 
 
-def run_study(path: Path, options: Options) -> StudyOutcome:
-    """Run a study (ScenarioError: a bad study or base scenario, nothing run); RunInterrupted propagates after
-    the runs in flight wrote their results and study.parquet is current."""
+@dataclass(frozen=True)
+class Plan:
+    """A study's runs, their rows as the study directory has them, and those to run now."""
+
+    spec: StudySpec
+    scenario_path: Path
+    out: Path
+    runs: list[PlannedRun]
+    rows: dict[str, dict]
+    todo: list[PlannedRun]
+
+
+def plan_study(path: Path, options: Options) -> Plan:
+    """Draw the scenes and find what the study directory already has (ScenarioError: a bad study or base
+    scenario)."""
     if options.rerun and not set(options.rerun) <= set(RERUN):
         raise ScenarioError(f"--rerun {','.join(options.rerun)}: choose from {', '.join(RERUN)}")
     spec = load_study(path)
@@ -89,16 +101,24 @@ def run_study(path: Path, options: Options) -> StudyOutcome:
     with _bar(options.progress) as bar:
         task = bar.add_task("drawing scenes", total=options.samples or spec.samples, rate="")
         runs = plan_runs(spec, sampler, options.samples, lambda done, total: bar.update(task, completed=done))
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "study.yaml").write_text(path.read_text())
     rows = {run.name: run_row(run, out / "runs" / run.name) for run in runs}
     todo = [run for run in runs if _wanted(rows[run.name], options.rerun)]
+    return Plan(spec, scenario_path, out, runs, rows, todo)
+
+
+def run_study(path: Path, options: Options) -> StudyOutcome:
+    """Run a study (ScenarioError: a bad study or base scenario, nothing run); RunInterrupted propagates after
+    the runs in flight wrote their results and study.parquet is current."""
+    plan = plan_study(path, options)
+    spec, out, runs, rows, todo = plan.spec, plan.out, plan.runs, plan.rows, plan.todo
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "study.yaml").write_text(path.read_text())
     for run in todo:
         shutil.rmtree(out / "runs" / run.name, ignore_errors=True)  # a run again starts from nothing
         rows[run.name] = run_row(run, out / "runs" / run.name)
     by_name = {run.name: run for run in runs}
     write_table(list(rows.values()), out / TABLE)
-    jobs = [_job(run, spec, scenario_path, out, options.plots) for run in todo]
+    jobs = [_job(run, spec, plan.scenario_path, out, options.plots) for run in todo]
     with _bar(options.progress) as bar:
         task = bar.add_task(f"{spec.name}: {len(todo)} runs", total=len(todo), rate=_rate(rows))
 

@@ -1,0 +1,31 @@
+"""Worker processes for many runs (`compare --jobs`, studies): started fresh, and ended cleanly on a signal."""
+
+from __future__ import annotations
+
+import multiprocessing
+import time
+from concurrent.futures import ProcessPoolExecutor
+
+STOP_S = 60.0  # [s] for the workers' runs to write their results after a signal, before they are killed
+
+
+def worker_pool(workers: int) -> ProcessPoolExecutor:
+    """Workers started by spawn, not fork: none of this process's threads (a library's thread pool), locks or
+    signal handlers carry over half-alive into them."""
+    return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+
+
+def end_workers(pool: ProcessPoolExecutor) -> None:
+    """SIGTERM to every worker (its run writes its results and stops), STOP_S for them to finish, then SIGKILL to
+    any left; the runs not started are cancelled."""
+    workers = list(getattr(pool, "_processes", {}).values())
+    for worker in workers:
+        worker.terminate()
+    pool.shutdown(wait=False, cancel_futures=True)  # a worker whose run has ended exits instead of waiting for more
+    deadline = time.monotonic() + STOP_S
+    for worker in workers:
+        worker.join(max(0.0, deadline - time.monotonic()))
+    for worker in workers:
+        if worker.is_alive():
+            worker.kill()
+    pool.shutdown(wait=True, cancel_futures=True)
