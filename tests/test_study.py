@@ -18,6 +18,7 @@ from conftest import ROOT
 from typer.testing import CliRunner
 
 from harmony_cli.cli import app
+from harmony_cli.experiment.run import run_scenario
 from harmony_cli.maths.shapes import obstacle_shape, table_shape
 from harmony_cli.study.plan import plan_runs
 from harmony_cli.study.report import wilson, write_report
@@ -78,6 +79,12 @@ def test_the_table_has_one_row_per_run_with_every_scalar_of_its_summary_and_resu
         }
         assert scalars and all(_same(row[k], v) for k, v in scalars.items()), row["run_dir"]
         assert row["status"] == summary["status"] == "completed" and row["outcome"] in ("success", "phase timeout")
+    replayed = run_scenario(
+        Path(table["run_dir"][1]) / "scenario.resolved.yaml", [], tmp_path / "replay", progress=False
+    )
+    original, again = (pd.read_csv(d / "steps.csv") for d in (Path(table["run_dir"][1]), replayed))
+    same = [c for c in original.columns if not any(t in c for t in TIMING)]
+    pd.testing.assert_frame_equal(original[same], again[same])  # the run directory replays its run exactly
     stamps = {p: p.stat().st_mtime_ns for p in out.glob("runs/*/summary.json")}
     second = run_study(STUDY, Options(out=out, samples=3, progress=False, plots="none"))
     assert (second.ran, second.skipped) == (0, 3)

@@ -22,10 +22,11 @@ def default_run_dir(name: str, root: Path = Path("results/runs")) -> Path:
 
 
 def write_inputs(out: Path, path: Path, overrides: list[str], scenario: Scenario) -> None:
-    """scenario.resolved.yaml (the URDF made absolute: re-runnable from `out`) and overrides.yaml."""
+    """scenario.resolved.yaml (the URDF and mesh paths made absolute: re-runnable from `out`) and overrides.yaml."""
     out.mkdir(parents=True, exist_ok=True)
     resolved = yaml.safe_load(scenario_yaml(scenario))
     resolved["robot"]["urdf"] = str((path.parent / scenario.robot.urdf).resolve())
+    resolved["robot"]["package_paths"] = [str((path.parent / p).resolve()) for p in scenario.robot.package_paths]
     (out / "scenario.resolved.yaml").write_text(yaml.safe_dump(resolved, sort_keys=False))
     (out / "overrides.yaml").write_text(yaml.safe_dump({"scenario": str(path), "overrides": list(overrides)}))
 
