@@ -74,7 +74,6 @@ def run(
     from harmony_cli.experiment.pipeline import RunFailed
     from harmony_cli.experiment.run import run_scenario
     from harmony_cli.mpc.registry import SolverUnavailable
-    from harmony_cli.report.text import run_lines
 
     try:
         if video_path is not None and video_path.suffix.lower() not in (".mp4", ".gif"):
@@ -93,6 +92,8 @@ def run(
     except RunInterrupted as exc:  # the run wrote its results; say where they are
         say("interrupted:", "yellow", f"{exc.signal_name}; the steps so far, summary and plots are in {exc.run_dir}")
         raise typer.Exit(exc.exit_code) from None
+    from harmony_cli.report.text import run_lines  # pandas: after the run, not before its first step
+
     for line in run_lines(run_dir, json.loads((run_dir / "summary.json").read_text())):
         typer.echo(line)
 

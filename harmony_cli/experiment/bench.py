@@ -17,6 +17,7 @@ from rich.table import Table
 
 from harmony_cli.experiment.run_dir import machine_meta
 from harmony_cli.mpc.knot_params import hand_rows
+from harmony_cli.mpc.structures import forget_structures
 from harmony_cli.mpc.wholebody import WholeBodyMPC
 from harmony_cli.report.metrics import time_stats_ms
 from harmony_cli.robot.model import load_robot
@@ -32,6 +33,7 @@ class Replay:
     def __init__(self, path: Path, overrides: list[str], start: float):
         scenario = load_scenario(path, overrides)
         self.robot = load_robot(scenario.robot, path.parent)
+        forget_structures()  # each configuration's build is measured from scratch (build_s), none reused
         self.mpc = WholeBodyMPC(self.robot, scenario, scenario.sim.control_dt)
         if scenario.reference is None:
             raise ValueError(f"{path}: the bench replays a hand reference; this scenario has a task")

@@ -8,27 +8,22 @@ from __future__ import annotations
 import json
 import time
 import traceback
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO
+from typing import IO, TYPE_CHECKING
 
-import pandas as pd
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
-from harmony_cli.experiment.faults import HeldPlans, Writes, failed, fault_of, write_whole
+from harmony_cli.experiment.faults import HeldPlans, Writes, failed, fault_of
 from harmony_cli.experiment.health import Health, check_start
 from harmony_cli.experiment.interrupts import RunInterrupted, interrupted_summary, signals_end_the_run
 from harmony_cli.experiment.loop import Watch, run_loop
+from harmony_cli.experiment.results import finish_run
 from harmony_cli.experiment.run_dir import machine_meta
 from harmony_cli.experiment.stream import STREAM, StepStream
 from harmony_cli.experiment.task_watch import TaskWatch
 from harmony_cli.mpc.wholebody import WholeBodyMPC
-from harmony_cli.report.metrics import displacement_from_twin
-from harmony_cli.report.plots import plot_run_dir
-from harmony_cli.report.summary import summarise_run
 from harmony_cli.robot.model import Robot
-from harmony_cli.robot.urdf import hand_below
 from harmony_cli.scenario import Scenario, robot_of, robot_warnings
 from harmony_cli.sim.simulation import Simulation
 from harmony_cli.sim.video import VideoRecorder, frame_every
@@ -37,6 +32,10 @@ from harmony_cli.tasks.reference import HandReference, trajectory_references
 from harmony_cli.tasks.targets import References
 from harmony_cli.tasks.two_stage import TaskReferences
 
+if TYPE_CHECKING:
+    import pandas as pd
+
+REUSED = "its structure built by an earlier run in this process"  # run.log (mpc/structures.py)
 VIDEO_FPS, VIDEO_SIZE = 10.0, (480, 360)  # TinyRenderer: ~0.1 s per frame at this size on a 2-core VM
 
 
@@ -170,78 +169,6 @@ def _recorder(built: Built, video: Path | None) -> VideoRecorder | None:
     )
 
 
-Attempt = Callable[[str, Callable[[], object]], object]  # (file, its write): a run's end tries each (faults.Writes)
-
-
-def _now(what: str, write: Callable[[], object]) -> object:
-    return write()
-
-
-def write_results(
-    out: Path,
-    scenario: Scenario,
-    scenario_dir: Path,
-    rows: list[dict],
-    summary: dict,
-    meta: dict,
-    twin: pd.DataFrame | None,
-    attempt: Attempt = _now,
-) -> pd.DataFrame:
-    """steps.csv (with push displacements from the twin), the summary's metrics, summary.json and meta.json, each
-    written through `attempt` (at a run's end: one that fails does not stop the others)."""
-    steps = pd.DataFrame(rows)
-    hands = list(scenario.robot.end_effectors)
-    if len(steps) and twin is not None:
-        steps = displacement_from_twin(steps, twin, hands)
-    attempt("steps.csv", lambda: steps.to_csv(out / "steps.csv", index=False))
-    if len(steps):
-        urdf = robot_of(scenario, scenario_dir).urdf
-        pushed = {
-            p.name: hand_below(p.link, urdf, scenario.robot.end_effectors)
-            if p.body == "robot" and p.link is not None
-            else None
-            for p in scenario.pushes
-        }
-        summary |= summarise_run(steps, scenario, hands, pushed)
-    attempt("meta.json", lambda: write_whole(out / "meta.json", json.dumps(meta, indent=2)))
-    attempt("summary.json", lambda: write_whole(out / "summary.json", json.dumps(summary, indent=2)))
-    return steps
-
-
-def _finish(
-    out: Path,
-    scenario: Scenario,
-    scenario_dir: Path,
-    rows: list[dict],
-    summary: dict,
-    meta: dict,
-    twin: pd.DataFrame | None,
-    opened: tuple[IO[str], StepStream, VideoRecorder | None],
-    writes: Writes,
-    plots: str = "all",
-) -> None:
-    """Every result of a run that can be written (a run that fails part-way keeps its video up to there); the
-    plots as `plots` asks (all | failed | none)."""
-    log, stream, recorder = opened
-    writes(STREAM, stream.close)
-    if recorder and (video := writes("video", recorder.close)) is not None:
-        summary["video"] = str(video)
-    steps = write_results(out, scenario, scenario_dir, rows, summary, meta, twin, writes)
-    writes("run.log", lambda: log.write(f"status: {summary['status']}\n"))
-    writes("run.log", log.close)
-    if len(steps) and (plots == "all" or plots == "failed" and not succeeded(summary)):
-        writes("plots", lambda: plot_run_dir(out, steps, scenario, summary))
-    if writes.reason is not None:  # a write failed after summary.json was: it says so now
-        writes("summary.json", lambda: write_whole(out / "summary.json", json.dumps(summary, indent=2)))
-
-
-def succeeded(summary: dict) -> bool:
-    """A run that completed, with its task's success (a hand trajectory: no failed solve)."""
-    task = summary.get("task")
-    ok = task.get("success") if task is not None else summary.get("failed_solves") == 0
-    return summary.get("status") == "completed" and bool(ok)
-
-
 def execute(
     scenario: Scenario,
     scenario_dir: Path,
@@ -268,8 +195,10 @@ def execute(
             notes = robot_warnings(scenario, scenario_dir) + list(built.robot.notes) + built.sim.notes
             log.write("".join(f"{line}\n" for line in notes))
             log.write(
-                f"built whole-body MPC: {built.mpc.problem.n_vars} decision variables in "
-                f"{built.mpc.build_time:.2f} s\n" + "".join(f"{k}: {v}\n" for k, v in meta["solver_paths"].items())
+                f"built whole-body MPC: {built.mpc.problem.n_vars} decision variables in {built.mpc.build_time:.2f} s"
+                + (f" ({REUSED})" if built.mpc.reused else "")
+                + "\n"
+                + "".join(f"{k}: {v}\n" for k, v in meta["solver_paths"].items())
             )
             log.flush()
             recorder = _recorder(built, video)
@@ -293,7 +222,7 @@ def execute(
             guard.hold()  # a second signal must not cut the results short
             if built is not None:
                 built.sim.close()
-            _finish(out, scenario, scenario_dir, rows, summary, meta, twin, (log, stream, recorder), writes, plots)
+            finish_run(out, scenario, scenario_dir, rows, summary, meta, twin, (log, stream, recorder), writes, plots)
     if writes.reason is not None:  # the run completed, its results could not all be written
         raise RunFailed(out, writes.reason)
     return out

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from harmony_cli.experiment.pipeline import write_results
+from harmony_cli.experiment.results import write_results
 from harmony_cli.experiment.stream import STREAM, read_stream
 from harmony_cli.report.plots import plot_run_dir
 from harmony_cli.scenario import load_scenario

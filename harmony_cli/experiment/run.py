@@ -7,7 +7,6 @@ from pathlib import Path
 
 from harmony_cli.experiment.pipeline import execute
 from harmony_cli.experiment.run_dir import default_run_dir, write_inputs
-from harmony_cli.experiment.twin import run_push_free_twin
 from harmony_cli.scenario import load_scenario
 
 
@@ -31,6 +30,8 @@ def run_scenario(
     write_inputs(out, path, list(overrides), scenario)
     twin, twin_info = None, None
     if scenario.pushes and push_free_twin:
+        from harmony_cli.experiment.twin import run_push_free_twin  # pandas: only for a scenario with pushes
+
         twin, twin_info = run_push_free_twin(path, list(overrides), scenario, out / "push_free", progress, concurrency)
     return execute(
         scenario,

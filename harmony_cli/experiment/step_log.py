@@ -4,6 +4,7 @@ per hand, forces, joints and commands, and the simulator's ground truth."""
 from __future__ import annotations
 
 import time
+from functools import cache
 
 import numpy as np
 
@@ -46,9 +47,10 @@ def step_record(
     for h, hand in enumerate(robot.hand_names):
         row |= _hand(hand, h, obs, targets, command, mpc.force_seen, truth)
     row |= truth.push_N
-    row |= {f"q_{j}": v for j, v in zip(robot.joint_names, obs.q)}
-    row |= {f"cmd_q_{j}": v for j, v in zip(robot.joint_names, command.q)}
-    row |= {f"cmd_qd_{j}": v for j, v in zip(robot.joint_names, command.qd)}
+    q, cmd_q, cmd_qd = _joint_columns(robot.joint_names)
+    row |= zip(q, obs.q)
+    row |= zip(cmd_q, command.q)
+    row |= zip(cmd_qd, command.qd)
     for name, position in truth.obstacle_positions.items():
         row |= {f"obstacle_{name}_{a}": v for a, v in zip("xyz", position)}
     for name, clearance in truth.clearance_robot_m.items():  # the true distances, measured by PyBullet
@@ -56,6 +58,12 @@ def step_record(
         if name in truth.clearance_box_m:
             row[f"clearance_box_{name}_m"] = truth.clearance_box_m[name]
     return row
+
+
+@cache
+def _joint_columns(joints: tuple[str, ...]) -> tuple[tuple[str, ...], ...]:
+    """The joint columns' names (q_, cmd_q_, cmd_qd_), made once per robot, not every step."""
+    return tuple(tuple(f"{prefix}{j}" for j in joints) for prefix in ("q_", "cmd_q_", "cmd_qd_"))
 
 
 def _hand(

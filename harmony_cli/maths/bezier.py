@@ -7,6 +7,7 @@ points are the columns of a ``(dim, N)`` array; normalised time ``s`` lies in
 
 from __future__ import annotations
 
+from functools import lru_cache
 from math import comb
 from typing import Any
 
@@ -23,6 +24,8 @@ __all__ = [
 ]
 
 _CASADI = (ca.SX, ca.MX, ca.DM)
+_MAX_COMB = 64  # binomial coefficients C(n, j) for n < this, as floats (rounded as numpy rounds comb(n, j) * s)
+_COMB = np.array([[comb(n, j) for j in range(_MAX_COMB)] for n in range(_MAX_COMB)], dtype=float)
 
 
 def bernstein_basis(n_ctrl: int, s: Any) -> Any:
@@ -33,20 +36,32 @@ def bernstein_basis(n_ctrl: int, s: Any) -> Any:
     if n_ctrl < 1:
         raise ValueError(f"n_ctrl must be >= 1, got {n_ctrl}")
     n = n_ctrl - 1
-    symbolic = isinstance(s, (ca.SX, ca.MX))
-    if symbolic:
-        s = ca.vec(s)
-        one = type(s).ones(s.size1(), 1)
-    else:
-        s = np.asarray(s, dtype=float).reshape(-1, 1)
-        one = np.ones_like(s)
+    if not isinstance(s, (ca.SX, ca.MX)):
+        powers, complements = _powers(np.asarray(s, dtype=float).reshape(-1), n)
+        return (_binomials(n) * powers) * complements[:, ::-1]
+    s = ca.vec(s)
+    one = type(s).ones(s.size1(), 1)
     # Powers by repeated multiplication: exact at s = 0 and s = 1, no 0**0 issues.
     pw, pw1 = [one], [one]
     for _ in range(n):
         pw.append(pw[-1] * s)
         pw1.append(pw1[-1] * (1 - s))
-    cols = [comb(n, j) * pw[j] * pw1[n - j] for j in range(n_ctrl)]
-    return ca.horzcat(*cols) if symbolic else np.hstack(cols)
+    return ca.horzcat(*[comb(n, j) * pw[j] * pw1[n - j] for j in range(n_ctrl)])
+
+
+def _powers(s: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(s^j, (1 - s)^j) for j = 0..n, (K, n + 1) each, by repeated multiplication (exact at s = 0 and 1, no 0**0;
+    multiply.accumulate multiplies in order, so every power is the same float as a loop's)."""
+    factors = np.empty((s.size, n + 1))
+    factors[:, 0], factors[:, 1:] = 1.0, s[:, None]
+    complements = np.empty((s.size, n + 1))
+    complements[:, 0], complements[:, 1:] = 1.0, (1 - s)[:, None]
+    return np.multiply.accumulate(factors, axis=1), np.multiply.accumulate(complements, axis=1)
+
+
+@lru_cache(maxsize=32)
+def _binomials(n: int) -> np.ndarray:
+    return np.array([comb(n, j) for j in range(n + 1)], dtype=float)
 
 
 def difference_matrix(n_ctrl: int, order: int = 1, horizon: float = 1.0) -> np.ndarray:
@@ -92,8 +107,14 @@ def shift_matrix(n_ctrl: int, tau: float) -> np.ndarray:
     The last column is ``e_n``, so the end point is kept.
     """
     S = np.zeros((n_ctrl, n_ctrl))
-    for j in range(n_ctrl):
-        S[j:, j] = bernstein_basis(n_ctrl - j, float(tau))[0]
+    if n_ctrl > _MAX_COMB:  # beyond the table of binomials: column by column
+        for col in range(n_ctrl):
+            S[col:, col] = bernstein_basis(n_ctrl - col, float(tau))[0]
+        return S
+    n = n_ctrl - 1
+    powers, complements = (v[0] for v in _powers(np.array([float(tau)]), n))
+    k, j = np.tril_indices(n_ctrl)  # C(n-j, k-j) tau^(k-j) (1-tau)^(n-k): the same products as bernstein_basis
+    S[k, j] = (_COMB[n - j, k - j] * powers[k - j]) * complements[n - k]
     return S
 
 

@@ -1,4 +1,7 @@
-"""CasADi functions as compiled C, cached on disk, and evaluated on numpy buffers without copies."""
+"""CasADi functions as compiled C, cached on disk, and evaluated on numpy buffers without copies.
+
+gcc runs in background threads (`Compiling`): a run's maps compile in parallel with each other and with the rest
+of its set-up, and a map that is never evaluated need not be waited for."""
 
 from __future__ import annotations
 
@@ -6,6 +9,7 @@ import hashlib
 import os
 import subprocess
 import tempfile
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
 import casadi as cs
@@ -13,33 +17,72 @@ import numpy as np
 
 from harmony_cli.cache import CACHE_DIR
 
+GCC_FLAGS = ("-O1", "-shared", "-fPIC")
+_POOLS: dict[int, ThreadPoolExecutor] = {}  # per process id: a forked worker must not inherit its parent's threads
+
+
+def _gcc_pool() -> ThreadPoolExecutor:
+    """Threads that wait for gcc (a subprocess: the GIL is free meanwhile), this process's own."""
+    pid = os.getpid()
+    if pid not in _POOLS:
+        _POOLS[pid] = ThreadPoolExecutor(max_workers=4, thread_name_prefix="harmony-gcc")
+    return _POOLS[pid]
+
+
+def library_path(name: str, source: str) -> Path:
+    """Where `source` compiles to in the cache (named by its content)."""
+    return CACHE_DIR / f"{name}_{hashlib.sha256(source.encode()).hexdigest()[:20]}.so"
+
 
 def shared_library(name: str, source: str) -> Path:
-    """C source built with gcc -O1 (1-3 s once) and cached on disk by content; raises if gcc is missing."""
-    library = CACHE_DIR / f"{name}_{hashlib.sha256(source.encode()).hexdigest()[:20]}.so"
+    """C source built with gcc -O1 (1-6 s once) and cached on disk by content; raises if gcc is missing. Its
+    results are CasADi VM's to the bit (no -ffast-math, no FMA contraction on x86-64's baseline ISA: the same IEEE
+    operations in the same order)."""
+    library = library_path(name, source)
     if not library.exists():
         CACHE_DIR.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryDirectory(dir=CACHE_DIR) as tmp:
             Path(tmp, "f.c").write_text(source)
             subprocess.run(
-                ["gcc", "-O1", "-shared", "-fPIC", "f.c", "-o", "f.so"],
+                ["gcc", *GCC_FLAGS, "f.c", "-o", "f.so"],
                 cwd=tmp,
                 check=True,
                 capture_output=True,
-                timeout=120,
+                timeout=300,
             )
             os.replace(Path(tmp, "f.so"), library)  # atomic: concurrent processes never load half a file
     return library
 
 
+class Compiling:
+    """`f` as C, compiled in a background thread from now on (already cached: nothing to wait for); `function`
+    waits for it and gives the compiled external, or f itself where gcc is missing (see code_path)."""
+
+    def __init__(self, f: cs.Function):
+        cg = cs.CodeGenerator(f.name(), {"with_header": False})
+        cg.add(f)
+        self.f, source = f, cg.dump()
+        self._library: Future[Path] = _gcc_pool().submit(shared_library, f.name(), source)
+        self._function: cs.Function | None = None
+
+    @property
+    def ready(self) -> bool:
+        """Compiled (or failed): `function` will not wait."""
+        return self._library.done()
+
+    @property
+    def function(self) -> cs.Function:
+        if self._function is None:
+            try:
+                self._function = cs.external(self.f.name(), str(self._library.result()))
+            except (OSError, subprocess.SubprocessError, RuntimeError):
+                self._function = self.f
+        return self._function
+
+
 def compiled(f: cs.Function) -> cs.Function:
     """f as C: ~10x faster than CasADi's VM; f itself where gcc is missing (see code_path)."""
-    cg = cs.CodeGenerator(f.name(), {"with_header": False})
-    cg.add(f)
-    try:
-        return cs.external(f.name(), str(shared_library(f.name(), cg.dump())))
-    except (OSError, subprocess.SubprocessError, RuntimeError):
-        return f
+    return Compiling(f).function
 
 
 def code_path(f: cs.Function) -> str:

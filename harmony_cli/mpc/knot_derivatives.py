@@ -6,11 +6,13 @@ The nonlinear residual of knot k depends only on q_k = X_pos b_k, so f, its grad
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import casadi as cs
 import numpy as np
 import scipy.sparse as sp
 
-from harmony_cli.mpc.codegen import Buffered, code_path, compiled
+from harmony_cli.mpc.codegen import Buffered, Compiling, code_path
 from harmony_cli.mpc.problem import Problem
 
 
@@ -20,9 +22,10 @@ class KnotDerivatives:
 
     The residual of knot k depends only on q_k = X_pos b_k: one evaluation is K small per-knot derivatives in
     compiled C. H is kept as values on a fixed pattern: nonzero i sits at (rows[i], cols[i]), in CCS order.
+    The maps compile in the background from construction (`compile_now=False`: from their first use).
     """
 
-    def __init__(self, problem: Problem, exact: bool = False):
+    def __init__(self, problem: Problem, exact: bool = False, compile_now: bool = True):
         self.B, self.exact, (K, npos), n = problem.position_basis, exact, problem.position_basis.shape, problem.n_vars
         q, ref = (cs.SX.sym(name, problem.task_residual.size1_in(i)) for i, name in enumerate(("q", "ref")))
         r = problem.task_residual(q, ref)
@@ -38,10 +41,10 @@ class KnotDerivatives:
             for kind, outs in knot_maps.items()
             if kind != "hessian" or exact
         }
-        maps = {kind: compiled(f) for kind, f in self.knot_functions.items()}
-        self.code_path = code_path(maps["value"])  # compiled C, or CasADi's VM without gcc
-        self.knots = {kind: Buffered(f) for kind, f in maps.items()}
+        if compile_now:
+            self._compiling  # noqa: B018 - gcc from now on, in the background
         self._cache: dict[str, tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]] = {}
+        self.native: dict[int, cs.Function | None] = {}  # parameters -> the native oracle (native_oracle.py)
         self.L, self.Lt, self.c = sp.csr_matrix(problem.L), sp.csr_matrix(problem.L.T), problem.c
         self.S = sp.csr_matrix(problem.S if problem.S is not None else (problem.c.size, problem.p.numel()))
         # block (a, b) of the position Hessian is sum_k B[k, a] B[k, b] H_k; (b, a) is the same matrix (H_k
@@ -67,6 +70,20 @@ class KnotDerivatives:
         self.nl_index = lookup[self.rows, self.cols]  # into the flat knot blocks, then a trailing zero
         self._blocks = np.zeros(n_blocks + 1)
 
+    @cached_property
+    def _compiling(self) -> dict[str, Compiling]:
+        return {kind: Compiling(f) for kind, f in self.knot_functions.items()}
+
+    @cached_property
+    def knots(self) -> dict[str, Buffered]:
+        """The compiled per-knot maps by kind (the first use waits for gcc)."""
+        return {kind: Buffered(c.function) for kind, c in self._compiling.items()}
+
+    @property
+    def code_path(self) -> str:
+        """compiled C, or CasADi's VM without gcc."""
+        return code_path(self._compiling["value"].function)
+
     def _knots(self, kind: str, x: np.ndarray, p: np.ndarray) -> dict[str, np.ndarray]:
         """Per-knot outputs of one kind at (x, p), cached for the last point asked of that kind."""
         hit = self._cache.get(kind)
@@ -75,6 +92,10 @@ class KnotDerivatives:
             out = self.knots[kind](i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p)
             hit = self._cache[kind] = x.copy(), p.copy(), {k: v.copy() for k, v in out.items()}
         return hit[2]
+
+    def reset(self) -> None:
+        """Forget the last points evaluated (a new solver's first evaluation computes)."""
+        self._cache.clear()
 
     def linear_residual(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         return self.L @ x + self.c + self.S @ p
@@ -123,9 +144,13 @@ class KnotConstraints:
     """Nonlinear rows h(q_k, ref_k) >= lower at the knots k >= 1 (knot 0 is the measured state) and their Jacobian
     C = J_k (x) b_k over the position variables, from one compiled per-knot map. Rows are knot-major:
     (k - 1) * m + j. lower = min(0, h(q_0)) per constraint: a state already inside a margin (a push, a moving
-    obstacle) may stay there but not go deeper, so the problem stays feasible."""
+    obstacle) may stay there but not go deeper, so the problem stays feasible.
 
-    def __init__(self, problem: Problem):
+    The per-knot Hessians of the rows (`curvature`, for an NLP solver's exact Lagrangian Hessian) are compiled
+    only when asked for: `curvature=True` starts gcc now, else on first use (their C takes ~20 s to compile with
+    obstacles, and the Gauss-Newton modes never use them)."""
+
+    def __init__(self, problem: Problem, curvature: bool = False):
         if problem.constraint is None:
             raise ValueError("KnotConstraints needs a problem with constraint rows")
         self.B, n, constraint = problem.position_basis, problem.n_vars, problem.constraint
@@ -135,19 +160,39 @@ class KnotConstraints:
         self.m, self.n_dof, self.n_rows = h.numel(), nd, (K - 1) * h.numel()
         self.function, self.n_ref = constraint, constraint.size1_in(1)
         J = cs.jacobian(h, q)
-        rows = compiled(cs.Function("harmony_clearance", [q, ref], [h, cs.densify(J.T)]).map(K))
-        self.code_path, self.map = code_path(rows), Buffered(rows)
-        lam = cs.SX.sym("lam", self.m)
-        self.curvature_map = Buffered(
-            compiled(
-                cs.Function(
-                    "harmony_clearance_hessian", [q, ref, lam], [cs.densify(cs.hessian(cs.dot(lam, h), q)[0])]
-                ).map(K)
-            )
-        )
+        self._rows = Compiling(cs.Function("harmony_clearance", [q, ref], [h, cs.densify(J.T)]).map(K))
+        self._values = Compiling(cs.Function("harmony_clearance_value", [q, ref], [h]).map(K))  # for `margins`
+        self._symbols = q, ref, h
+        if curvature:
+            self._compiling_curvature  # noqa: B018 - gcc from now on
         structural = np.array(cs.DM(J.sparsity(), 1)) != 0  # m x nd: which joints each constraint depends on
         self.pattern = np.zeros((self.n_rows, n), dtype=bool)  # x = [vec(positions) (nd * npos); anything else]
         self.pattern[:, : nd * npos] = np.einsum("ka,ji->kjai", self.B[1:] != 0, structural).reshape(self.n_rows, -1)
+
+    @cached_property
+    def map(self) -> Buffered:
+        """The compiled per-knot rows and their Jacobians (the first use waits for gcc)."""
+        return Buffered(self._rows.function)
+
+    @cached_property
+    def value_map(self) -> Buffered:
+        """The compiled per-knot rows alone (half the time of `map`: no Jacobian)."""
+        return Buffered(self._values.function)
+
+    @property
+    def code_path(self) -> str:
+        return code_path(self._rows.function)
+
+    @cached_property
+    def _compiling_curvature(self) -> Compiling:
+        q, ref, h = self._symbols
+        lam = cs.SX.sym("lam", self.m)
+        hessian = cs.densify(cs.hessian(cs.dot(lam, h), q)[0])
+        return Compiling(cs.Function("harmony_clearance_hessian", [q, ref, lam], [hessian]).map(self.B.shape[0]))
+
+    @cached_property
+    def curvature_map(self) -> Buffered:
+        return Buffered(self._compiling_curvature.function)
 
     def lower(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """Lower bounds of the rows: min(0, h(q_0)) per constraint, repeated for every knot >= 1."""
@@ -159,7 +204,7 @@ class KnotConstraints:
     def margins(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(h at knots >= 1, lower bounds), without the Jacobian's assembly."""
         (K, npos), nd = self.B.shape, self.n_dof
-        h = self.map(i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p)["o0"].reshape(K, self.m)
+        h = self.value_map(i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p)["o0"].reshape(K, self.m)
         return h[1:].ravel().copy(), np.tile(np.minimum(h[0], 0.0), K - 1)
 
     def evaluate(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -171,6 +216,24 @@ class KnotConstraints:
         C[:, : nd * npos] = np.einsum("kji,ka->kjai", J[1:], self.B[1:]).reshape(self.n_rows, -1)
         return h[1:].ravel().copy(), np.tile(np.minimum(h[0], 0.0), K - 1), C  # h: a view of the map's buffer
 
+    def entries(self, rows: np.ndarray, cols: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Where the Jacobian's entries C[rows, cols] (cols: position variables) come from, for `evaluate_entries`:
+        their knot, constraint and joint in the per-knot Jacobians and their control point."""
+        if np.any(cols >= self.n_dof * self.B.shape[1]):
+            raise ValueError("clearance rows depend on the position variables only")
+        return rows // self.m + 1, rows % self.m, cols % self.n_dof, cols // self.n_dof
+
+    def evaluate_entries(
+        self, x: np.ndarray, p: np.ndarray, entries: tuple[np.ndarray, ...]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(h at knots >= 1, lower bounds, the Jacobian's values at `entries`): `evaluate` without the dense C, the
+        same products J_k[j, i] b_k[a] (to the bit)."""
+        (K, npos), nd = self.B.shape, self.n_dof
+        out = self.map(i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p)
+        h, J = out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, nd)
+        knot, row, joint, point = entries
+        return h[1:].ravel().copy(), np.tile(np.minimum(h[0], 0.0), K - 1), J[knot, row, joint] * self.B[knot, point]
+
     def curvature(self, x: np.ndarray, p: np.ndarray, lam: np.ndarray) -> np.ndarray:
         """Per-knot Hessians of lam . h with respect to q_k (K x n_dof^2; knot 0 has no rows: zero)."""
         (K, npos), nd = self.B.shape, self.n_dof
@@ -178,3 +241,25 @@ class KnotConstraints:
             i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p, i2=np.r_[np.zeros(self.m), lam]
         )
         return out["o0"].reshape(K, nd * nd).copy()
+
+
+def shared_derivatives(problem: Problem, exact: bool = False, compile_now: bool = True) -> KnotDerivatives:
+    """The problem's KnotDerivatives, made once per problem and shared by the solvers built on it (its compiled
+    maps are the expensive part; a run after another of the same structure builds none), reset for a new one."""
+    model = problem.derived.get(("derivatives", exact))
+    if model is None:
+        model = problem.derived[("derivatives", exact)] = KnotDerivatives(problem, exact, compile_now)
+    elif compile_now:
+        model._compiling  # noqa: B018 - gcc from now on, if it has not started
+    model.reset()
+    return model
+
+
+def shared_constraints(problem: Problem, curvature: bool = False) -> KnotConstraints:
+    """The problem's KnotConstraints, made once per problem and shared (they keep no state between calls)."""
+    constraints = problem.derived.get("constraints")
+    if constraints is None:
+        constraints = problem.derived["constraints"] = KnotConstraints(problem, curvature)
+    elif curvature:
+        constraints._compiling_curvature  # noqa: B018 - gcc from now on, if it has not started
+    return constraints

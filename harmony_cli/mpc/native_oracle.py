@@ -175,7 +175,14 @@ def _c_array(values) -> str:
 
 
 def native_oracle(model: KnotDerivatives, n_p: int) -> cs.Function | None:
-    """(x, p) -> (f, gradient, Hessian on model's pattern) as a compiled CasADi external; None without gcc."""
+    """(x, p) -> (f, gradient, Hessian on model's pattern) as a compiled CasADi external; None without gcc. Made
+    once per model (shared by the solvers of one problem: mpc/structures.py)."""
+    if n_p not in model.native:
+        model.native[n_p] = _native_oracle(model, n_p)
+    return model.native[n_p]
+
+
+def _native_oracle(model: KnotDerivatives, n_p: int) -> cs.Function | None:
     maps = model.knot_functions
     cg = cs.CodeGenerator("harmony_oracle", {"with_header": False})
     for f in maps.values():

@@ -16,7 +16,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from harmony_cli.mpc.codegen import Buffered
-from harmony_cli.mpc.knot_derivatives import KnotConstraints, KnotDerivatives
+from harmony_cli.mpc.knot_derivatives import shared_constraints, shared_derivatives
 from harmony_cli.mpc.native_oracle import native_oracle
 from harmony_cli.mpc.oracles import ConstraintOracle, Oracle
 from harmony_cli.mpc.problem import Problem, SolveContext, SolveResult
@@ -56,19 +56,23 @@ class NlpSolver:
                 "qpsol_options": {"print_iter": False, "print_header": False},
             }
         self.problem, self.plugin, self.options = problem, plugin, defaults | options
-        model = KnotDerivatives(problem, exact=hessian == "exact")
+        # the clearance rows' C compiles in the background while the cost's does (their curvature: IPOPT's
+        # Lagrangian Hessian)
+        self.constraints = shared_constraints(problem, curvature=True) if problem.constraint is not None else None
+        exact = hessian == "exact"
+        model = shared_derivatives(problem, exact, compile_now=False)  # the native oracle has its own maps
         self.native = native_oracle(model, problem.p.numel())
         if self.native is None:  # no C compiler: the same derivatives through Python callbacks (~3 ms per solve)
             self.oracle = [Oracle(model, kind, problem.p.numel()) for kind in ("f", "grad", "hess")]
             self.oracle[0].grad = self.oracle[1]
-        self.constraints = KnotConstraints(problem) if problem.constraint is not None else None
         self.n_rows = 0 if self.constraints is None else self.constraints.n_rows
         if self.constraints is not None:
+            self.constraints.curvature_map  # noqa: B018 - built now (waits for gcc), not in the first solve
             self.constraint_oracle = [
                 ConstraintOracle(self.constraints, model, kind, problem.p.numel()) for kind in ("jac", "hess")
             ]
         cost = (
-            f"native C oracle ({model.code_path} per-knot maps)"
+            "native C oracle (compiled C per-knot maps)"
             if self.native is not None
             else f"Python callbacks ({model.code_path} per-knot maps; no gcc for the native oracle)"
         )
@@ -165,7 +169,7 @@ class SymbolicNlpSolver:
     fixed variables as lbx == ubx. Slower than NlpSolver; used only when a plugin rejects its structured oracles."""
 
     def __init__(self, problem: Problem, plugin: str, options: dict, reason: str = ""):
-        self.constraints = KnotConstraints(problem) if problem.constraint is not None else None
+        self.constraints = shared_constraints(problem) if problem.constraint is not None else None
         g = cs.mtimes(cs.DM(problem.A), problem.x)
         if self.constraints is not None and problem.constraint_at_knots is not None:
             (K, npos), nd = problem.position_basis.shape, self.constraints.n_dof

@@ -133,9 +133,9 @@ class TaskPlanner:
 
     def _fixed(self, C: np.ndarray, state: HandState, goal: np.ndarray, goal_heading: float, T: float):
         n = self.M - 1
-        start = np.r_[state.positions.ravel(), state.heading]
-        rate = np.r_[state.velocities.ravel(), state.heading_rate]
-        end = np.r_[goal.ravel(), goal_heading]
+        start = np.concatenate([state.positions.ravel(), [state.heading]])  # np.r_ costs ~20 us a call
+        rate = np.concatenate([state.velocities.ravel(), [state.heading_rate]])
+        end = np.concatenate([goal.ravel(), [goal_heading]])
         C[:, 0], C[:, 1] = start, start + rate * T / n
         C[:, -3:] = end[:, None]
 
@@ -166,7 +166,8 @@ class TaskPlanner:
         heading_goal = self.goal_heading(goal, state.heading)
         if self.C is None or phase != self.phase:  # straight line to the goal, then full SQP
             C = np.zeros((ROWS, M))
-            start, end = np.r_[state.positions.ravel(), state.heading], np.r_[goal.ravel(), heading_goal]
+            start = np.concatenate([state.positions.ravel(), [state.heading]])
+            end = np.concatenate([goal.ravel(), [heading_goal]])
             C[:] = start[:, None] + (end - start)[:, None] * np.linspace(0, 1, M)
             iterations = spec.phase_iterations
         else:  # the previous plan from now on (de Casteljau), re-timed to the new horizon
@@ -211,7 +212,7 @@ class TaskPlanner:
         x = C.ravel()
         curves = C @ self.B.T  # (7, S)
         r_pose, J_pose = self._pose_residuals(curves, width)
-        r = np.r_[self.J_lin @ x, r_pose]
+        r = np.concatenate([self.J_lin @ x, r_pose])
         J = np.vstack([self.J_lin, J_pose])[:, free]
         H = J.T @ J + 1e-9 * np.eye(self.n_free)
         g = J.T @ r
@@ -235,20 +236,20 @@ class TaskPlanner:
         h, dh = np.stack([np.cos(psi), np.sin(psi)]), np.stack([-np.sin(psi), np.cos(psi)])
         w = self.spec.weights.facing
         r_face = w * np.sum(d * h, axis=0)
+        B = self.B[:, None, :]  # one row of bases per curve: (S, curves, M) = weight (S, curves) * basis (S, M)
         J_face = np.zeros((psi.size, ROWS, self.M))
-        for axis in range(2):
-            J_face[:, axis] = -w * h[axis][:, None] * self.B
-            J_face[:, 3 + axis] = w * h[axis][:, None] * self.B
+        J_face[:, 0:2] = (-w * h.T)[:, :, None] * B
+        J_face[:, 3:5] = (w * h.T)[:, :, None] * B
         J_face[:, 6] = w * np.sum(d * dh, axis=0)[:, None] * self.B
         across = curves[3:6] - curves[0:3]
         length = np.maximum(np.linalg.norm(across, axis=0), 1e-9)
         w = self.spec.weights.width
         r_width = w * (length - width)
         J_width = np.zeros((psi.size, ROWS, self.M))
-        for axis in range(3):
-            J_width[:, axis] = -w * (across[axis] / length)[:, None] * self.B
-            J_width[:, 3 + axis] = w * (across[axis] / length)[:, None] * self.B
-        return np.r_[r_face, r_width], np.vstack([J_face.reshape(psi.size, -1), J_width.reshape(psi.size, -1)])
+        J_width[:, 0:3] = (-w * (across / length).T)[:, :, None] * B
+        J_width[:, 3:6] = (w * (across / length).T)[:, :, None] * B
+        J = np.vstack([J_face.reshape(psi.size, -1), J_width.reshape(psi.size, -1)])
+        return np.concatenate([r_face, r_width]), J
 
     def _clearance_rows(
         self,
@@ -270,18 +271,22 @@ class TaskPlanner:
         for obstacle in self.obstacles:
             # a moving obstacle at each sample time: the points relative to it, as if it stood at shape.centre
             moved = 0.0 if obstacle.motion is None else obstacle.motion(t + T * self.s) - obstacle.shape.centre
-            for k, (p, (w0, w1)) in enumerate(zip(points, weights)):
-                active = k < 2 or carried is not None
-                shape = obstacle.shape.grown(carried[0]) if k == 2 and carried is not None else obstacle.shape
-                dist, grad = shape.distance(p - moved)
-                needed = obstacle.clearance
+            dist, grad = obstacle.shape.distance(np.concatenate([points[0] - moved, points[1] - moved]))  # both hands
+            measured = [(dist[:n], grad[:n]), (dist[n:], grad[n:])]
+            if carried is not None:
+                measured.append(obstacle.shape.grown(carried[0]).distance(points[2] - moved))
+            for k, (w0, w1) in enumerate(weights):
+                if k >= len(measured):  # not carrying: the object's rows are inactive
+                    rows.append(np.zeros((n, self.n_free)))
+                    lba.append(np.full(n, -np.inf))
+                    uba.append(np.full(n, np.inf))
+                    continue
+                dist, grad = measured[k]
                 row = np.zeros((n, ROWS, self.M))
-                for axis in range(3):
-                    row[:, axis] = w0 * grad[:, axis][:, None] * self.B
-                    row[:, 3 + axis] = w1 * grad[:, axis][:, None] * self.B
-                rows.append(row.reshape(n, -1)[:, free] if active else np.zeros((n, self.n_free)))
-                lba.append(needed - dist if active else np.full(n, -np.inf))
+                row[:, 0:3] = (w0 * grad)[:, :, None] * self.B[:, None, :]
+                row[:, 3:6] = (w1 * grad)[:, :, None] * self.B[:, None, :]
+                rows.append(row.reshape(n, -1)[:, free])
+                lba.append(obstacle.clearance - dist)
                 uba.append(np.full(n, np.inf))
-                if active:
-                    clearance = min(clearance, float(np.min(dist - needed)))
+                clearance = min(clearance, float(np.min(dist - obstacle.clearance)))
         return clearance

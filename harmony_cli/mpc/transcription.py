@@ -80,6 +80,8 @@ class BezierTranscription:
         self.variable_shapes = {"Q": (n_dof, n_ctrl)}
         self.position_basis = self.basis[0]  # q_knots = Q @ position_basis.T
         self.decision_label = f"Q[0..{n_ctrl - 1}]"
+        self._readout: dict[float, tuple[np.ndarray, np.ndarray]] = {}  # t -> basis rows of q(t), q_dot(t)
+        self._shift: dict[float, np.ndarray] = {}  # dt -> shift_matrix
 
     def positions(self, x):
         return _reshape(x, self.n_dof, self.n_ctrl)
@@ -103,14 +105,20 @@ class BezierTranscription:
         return lo.ravel("F"), hi.ravel("F")
 
     def readout(self, x: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
-        s = np.array([min(t / self.horizon, 1.0)])
+        if t not in self._readout:  # the loop reads out at the same few times every step: their bases once
+            s = np.array([min(t / self.horizon, 1.0)])
+            self._readout[t] = (
+                bezier.derivative_matrix(self.n_ctrl, s, 0)[0],
+                bezier.derivative_matrix(self.n_ctrl, s, 1, self.horizon)[0],
+            )
         Q = self.positions(x)
-        return Q @ bezier.derivative_matrix(self.n_ctrl, s, 0)[0], Q @ bezier.derivative_matrix(
-            self.n_ctrl, s, 1, self.horizon
-        )[0]
+        position, velocity = self._readout[t]
+        return Q @ position, Q @ velocity
 
     def shift(self, x: np.ndarray, dt: float) -> np.ndarray:
-        return (self.positions(x) @ bezier.shift_matrix(self.n_ctrl, dt / self.horizon)).ravel("F")
+        if dt not in self._shift:  # de Casteljau by one control period, the same every step
+            self._shift[dt] = bezier.shift_matrix(self.n_ctrl, dt / self.horizon)
+        return (self.positions(x) @ self._shift[dt]).ravel("F")
 
 
 class TraditionalTranscription:

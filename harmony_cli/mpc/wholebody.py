@@ -10,11 +10,10 @@ import numpy as np
 
 from harmony_cli.maths.filters import LowPass
 from harmony_cli.mpc.clearance import scene_clearances
-from harmony_cli.mpc.knot_params import KnotLayout
 from harmony_cli.mpc.problem import SolveResult
 from harmony_cli.mpc.registry import make_solver
-from harmony_cli.mpc.transcription import make_transcription
-from harmony_cli.mpc.wholebody_problem import build_problem, joint_limits
+from harmony_cli.mpc.structures import structure_for
+from harmony_cli.mpc.wholebody_problem import joint_limits
 from harmony_cli.robot.model import Robot
 
 if TYPE_CHECKING:
@@ -30,7 +29,8 @@ class Command:
 
 
 class WholeBodyMPC:
-    """Built once; `step` solves from the measured state and reads out the command for the next period."""
+    """Built once per run on a structure built once per process (`reused`: an earlier run's); `step` solves from
+    the measured state and reads out the command for the next period."""
 
     def __init__(self, robot: Robot, scenario: Scenario, control_dt: float):
         start = time.perf_counter()
@@ -38,25 +38,14 @@ class WholeBodyMPC:
         self.admittance = scenario.admittance if scenario.admittance.enabled else None
         self.n_hands = len(robot.end_effectors)
         self.limits = joint_limits(robot, self.admittance)
-        self.transcription = make_transcription(scenario.mpc, self.limits[0].size)
-        self.clearances, poses = scene_clearances(
-            scenario.world, scenario.planner.hand_radius, scenario.robot.base_margin
-        )
-        self.layout = KnotLayout(self.n_hands, len(self.clearances), self.admittance is not None)
+        structure, self.reused = structure_for(robot, scenario)  # built once per process (mpc/structures.py)
+        self.transcription, self.clearances = structure.transcription, structure.clearances
+        self.layout, self.problem = structure.layout, structure.problem
+        _, poses = scene_clearances(scenario.world, scenario.planner.hand_radius, scenario.robot.base_margin)
         # obstacle poses at every knot (rows of the knot parameters after the hands'); moving ones update them
         self.obstacle_poses = np.tile(poses[:, None], self.transcription.n_knots)
-        self.problem = build_problem(
-            robot,
-            self.transcription,
-            scenario.mpc.weights,
-            scenario.robot.chest_joints,
-            scenario.robot.mirrored_joints,
-            self.clearances,
-            tuple(map(tuple, scenario.robot.footprint)) if self.clearances else (),
-            scenario.mpc.clearance,
-            self.admittance,
-        )
-        self.solver = make_solver(self.problem, scenario.solver)
+        self.solver = make_solver(self.problem, scenario.solver)  # this run's own: QPs, warm starts
+        self.problem.compile_terms()  # for the steps log; after the solver's maps, which the first step waits for
         self.build_time = time.perf_counter() - start
         self.x: np.ndarray | None = None  # last good solution
         self.pinned = list(robot.pinned_joints)
@@ -103,7 +92,7 @@ class WholeBodyMPC:
             self.force_seen = self.force_filter(force_meas)
         self.params = self.layout.stack(hand_ref, self.obstacle_poses, force_ref, self.force_seen)
         t, dt, robot = self.transcription, self.control_dt, self.robot
-        q_init = np.r_[q_now, np.zeros(t.n_dof - q_now.size)]  # the compliant offsets start at 0
+        q_init = np.concatenate([q_now, np.zeros(t.n_dof - q_now.size)])  # the compliant offsets start at 0
         q_init[self.pinned] = robot.home[self.pinned]
         lbx, ubx = t.bounds(*self.limits, q_init, self.pinned, robot.home[self.pinned])
         x0 = self._constant(q_init) if self.x is None else t.shift(self.x, dt)

@@ -1,6 +1,10 @@
-"""The whole-body MPC's optimisation problem (MPC-W), one spec for either transcription, modelled with OpTaS's
-builder: hand pose tracking at K knots, posture and smoothness regularisers, obstacle clearance (hard rows or a
-soft cost) and, with admittance, a compliant offset per hand along its pad normal."""
+"""The whole-body MPC's optimisation problem (MPC-W), one spec for either transcription, as CasADi SX expressions
+(the robot's kinematics from OpTaS): hand pose tracking at K knots, posture and smoothness regularisers, obstacle
+clearance (hard rows or a soft cost) and, with admittance, a compliant offset per hand along its pad normal.
+
+OpTaS's OptimizationBuilder.build() is not used: it derives the Jacobian and Hessian of the whole cost, which
+harmony never evaluates (its solvers differentiate the knot structure, mpc/knot_derivatives.py), and that took
+most of a run's set-up (2.5 s of ~7 s warm). The symbols are the ones the builder made (same names, shapes, order)."""
 
 from __future__ import annotations
 
@@ -8,11 +12,10 @@ from typing import TYPE_CHECKING
 
 import casadi as cs
 import numpy as np
-import optas
 
 from harmony_cli.mpc.clearance import Clearance, clearance_function, clearance_margins
 from harmony_cli.mpc.knot_params import KnotLayout
-from harmony_cli.mpc.problem import Problem, linear_rows
+from harmony_cli.mpc.problem import Problem, dense, linear_rows
 from harmony_cli.mpc.transcription import Transcription
 from harmony_cli.robot.model import Robot
 
@@ -98,7 +101,7 @@ def _affine_form(linear: dict, x, p) -> tuple[np.ndarray, np.ndarray, np.ndarray
     if not cs.is_linear(r_lin, cs.vertcat(x, p)):
         raise ValueError("the linear cost residuals are not affine in the decision variables and parameters")
     L, S, c = (
-        np.array(v)
+        dense(v)
         for v in cs.Function("lin", [x, p], [cs.jacobian(r_lin, x), cs.jacobian(r_lin, p), r_lin])(
             np.zeros(x.numel()), np.zeros(p.numel())
         )
@@ -122,33 +125,32 @@ def build_problem(
     task_residual_function)."""
     K = transcription.n_knots
     layout = KnotLayout(len(robot.end_effectors), len(clearances), admittance is not None)
-    builder = optas.OptimizationBuilder(T=1)
-    parts = [builder.add_decision_variables(name, *shape) for name, shape in transcription.variable_shapes.items()]
+    parts = [cs.SX.sym(name, *shape) for name, shape in transcription.variable_shapes.items()]
     x = cs.vertcat(*[cs.vec(v) for v in parts])
-    ref = builder.add_parameter("knot_params", layout.rows, K)
+    ref = cs.SX.sym("knot_params", layout.rows, K)
     knots = transcription.knots(x)
 
     soft = clearance == "soft" and bool(clearances)
     task_residual = task_residual_function(robot, weights, K, clearances, footprint, soft, layout.compliant)
     residual = task_residual.map(K)(knots[0], ref)
+    terms: dict[str, cs.SX] = {}
     for h, hand in enumerate(robot.hand_names):
-        builder.add_cost_term(f"position_{hand}", cs.sumsqr(residual[layout.hand_position(h), :]))
-        builder.add_cost_term(f"orientation_{hand}", cs.sumsqr(residual[layout.hand_rotation(h), :]))
+        terms[f"position_{hand}"] = cs.sumsqr(residual[layout.hand_position(h), :])
+        terms[f"orientation_{hand}"] = cs.sumsqr(residual[layout.hand_rotation(h), :])
     if soft:
-        builder.add_cost_term("clearance", cs.sumsqr(residual[layout.hands_end :, :]))
+        terms["clearance"] = cs.sumsqr(residual[layout.hands_end :, :])
     linear = linear_residuals(robot, knots, ref, layout, weights, chest_joints, mirrored_joints, admittance)
     for name, r in linear.items():
-        builder.add_cost_term(name, cs.sumsqr(r))
-    optimization = builder.build()
+        terms[name] = cs.sumsqr(r)
 
     constraint = clearance_function(robot, clearances, footprint, layout.compliant) if clearances and not soft else None
-    p = optimization.parameters.vec()
+    p = cs.vec(ref)
     L, S, c = _affine_form(linear, x, p)
     A, lb, ub = linear_rows(x, transcription.linear_constraints(x, joint_limits(robot, admittance)[2]))
     return Problem(
         x=x,
         p=p,
-        terms={k: optimization.cost_terms[k] for k in optimization.cost_terms},
+        terms=terms,
         A=A,
         lb=lb,
         ub=ub,

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import importlib
+import importlib.util
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import casadi as cs
 import numpy as np
-import optas
 
 from harmony_cli.cache import CACHE_DIR
 from harmony_cli.capture import captured_output
@@ -18,7 +20,28 @@ from harmony_cli.robot.prepare import UrdfPlan, prepare_urdf
 from harmony_cli.robot.urdf import joint_types, wrist_sensor_joints
 
 if TYPE_CHECKING:
+    from optas.models import RobotModel
+
     from harmony_cli.scenario.robot import RobotSpec
+
+
+def optas_robot_model() -> type[RobotModel]:
+    """OpTaS's RobotModel (URDF -> CasADi kinematics) without running OpTaS's package __init__, which also imports
+    its visualiser (VTK, ~1.4 s), its solvers (OSQP, CVXOPT, SciPy's optimisers) and its builder: harmony uses
+    none of them. A later `import optas` anywhere still gets the whole package (the bare one is not kept)."""
+    models = sys.modules.get("optas.models")
+    if models is None and "optas" in sys.modules:
+        models = importlib.import_module("optas.models")
+    if models is None:
+        spec = importlib.util.find_spec("optas")
+        if spec is None:
+            raise ImportError("harmony needs OpTaS (pip install pyoptas)")
+        sys.modules["optas"] = importlib.util.module_from_spec(spec)  # the package without its __init__
+        try:
+            models = importlib.import_module("optas.models")
+        finally:
+            del sys.modules["optas"]
+    return models.RobotModel
 
 
 @dataclass(frozen=True)
@@ -26,7 +49,7 @@ class Robot:
     """A dual-arm mobile manipulator: kinematics (OpTaS), limits and the joint roles of the scenario."""
 
     urdf: Path
-    model: optas.RobotModel
+    model: RobotModel
     joint_names: tuple[str, ...]
     lower: np.ndarray  # [rad | m], per joint in `joint_names` order
     upper: np.ndarray
@@ -95,7 +118,7 @@ def load_robot(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) 
         (scenario_dir / spec.urdf).resolve(), urdf_plan(spec, scenario_dir, keep), CACHE_DIR / "urdf"
     )
     with captured_output() as parser_output:
-        model = optas.RobotModel(urdf_filename=str(prepared.path), time_derivs=[0])
+        model = optas_robot_model()(urdf_filename=str(prepared.path), time_derivs=[0])
     names = tuple(model.actuated_joint_names)
     home = np.zeros(len(names))
     for joint, value in prepared.home.items():

@@ -4,11 +4,22 @@ from __future__ import annotations
 
 import warnings
 import xml.etree.ElementTree as ET
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation as RotationType
 
 ROTATING = ("revolute", "continuous")
+
+
+def _rotation() -> type[RotationType]:
+    """SciPy's Rotation, imported when a URDF is rewritten (scipy.spatial takes ~0.4 s to import; a run whose
+    prepared URDF is cached never needs it)."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation
 
 
 def _floats(text: str | None, default: str = "0 0 0") -> np.ndarray:
@@ -20,14 +31,14 @@ def origin_matrix(element: ET.Element) -> np.ndarray:
     origin = element.find("origin")
     transform = np.eye(4)
     if origin is not None:
-        transform[:3, :3] = Rotation.from_euler("xyz", _floats(origin.get("rpy"))).as_matrix()
+        transform[:3, :3] = _rotation().from_euler("xyz", _floats(origin.get("rpy"))).as_matrix()
         transform[:3, 3] = _floats(origin.get("xyz"))
     return transform
 
 
 def pose_matrix(xyz, rpy) -> np.ndarray:
     transform = np.eye(4)
-    transform[:3, :3] = Rotation.from_euler("xyz", rpy).as_matrix()
+    transform[:3, :3] = _rotation().from_euler("xyz", rpy).as_matrix()
     transform[:3, 3] = xyz
     return transform
 
@@ -39,7 +50,7 @@ def set_origin(element: ET.Element, transform: np.ndarray) -> None:
         element.remove(old)
     with warnings.catch_warnings():  # at pitch +-90 deg scipy picks yaw = 0: still the same rotation
         warnings.simplefilter("ignore", UserWarning)
-        rpy = Rotation.from_matrix(transform[:3, :3]).as_euler("xyz")
+        rpy = _rotation().from_matrix(transform[:3, :3]).as_euler("xyz")
     origin = ET.Element("origin", xyz=_text(transform[:3, 3]), rpy=_text(rpy))
     element.insert(0, origin)
 
@@ -55,7 +66,7 @@ def joint_motion(joint: ET.Element, value: float) -> np.ndarray:
     axis = axis / np.linalg.norm(axis)
     motion = np.eye(4)
     if joint.get("type") in ROTATING:
-        motion[:3, :3] = Rotation.from_rotvec(axis * value).as_matrix()
+        motion[:3, :3] = _rotation().from_rotvec(axis * value).as_matrix()
     elif joint.get("type") == "prismatic":
         motion[:3, 3] = axis * value
     else:

@@ -158,9 +158,10 @@ class Simulation:
         )
 
     def step(self, substeps: int) -> None:
-        for _ in range(substeps):
+        for substep in range(substeps):
             self.pushes.apply(self.physics_steps * self.spec.physics_dt)
-            self.wrists.before_physics_step()
+            if substep == substeps - 1:  # the wrist sensors' accelerations are over the last physics step
+                self.wrists.before_physics_step()
             self.client.stepSimulation()
             self.physics_steps += 1
             if self.world is not None:

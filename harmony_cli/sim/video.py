@@ -5,7 +5,6 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-import imageio.v2 as imageio
 import numpy as np
 import pybullet
 
@@ -25,6 +24,8 @@ def frame_every(control_dt: float, fps: float) -> int:
 
 
 def _open_writer(path: Path, fps: float):
+    import imageio.v2 as imageio  # only when a video is recorded
+
     if path.suffix.lower() == ".mp4":
         # macro_block_size=2: libx264/yuv420p needs even sides; imageio scales odd ones up by a pixel.
         return imageio.get_writer(

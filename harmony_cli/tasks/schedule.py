@@ -35,8 +35,8 @@ class Schedule:
             return np.zeros(np.size(times))
         target = np.array([p.force for p in self.phases])
         i = np.minimum(np.searchsorted(self.ends, times, side="right"), len(self.phases) - 1)
-        start = np.r_[0.0, self.ends[:-1]][i]
-        before = np.r_[0.0, target[:-1]][i]
+        start = np.concatenate([[0.0], self.ends[:-1]])[i]
+        before = np.concatenate([[0.0], target[:-1]])[i]
         return before + (target[i] - before) * quintic((np.asarray(times) - start) / self.admittance.ramp)
 
     def squeeze(self, phase: PhaseSpec) -> float:

@@ -1,0 +1,99 @@
+"""The end of a run: steps.csv, the summary's metrics, summary.json, meta.json, run.log and the plots, each written
+as far as it can be (one write that fails does not stop the others). pandas and the plots load here, after the
+closed loop, not before its first step."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import IO, TYPE_CHECKING
+
+from harmony_cli.experiment.faults import Writes, write_whole
+from harmony_cli.experiment.stream import STREAM, StepStream
+from harmony_cli.robot.urdf import hand_below
+from harmony_cli.scenario import Scenario, robot_of
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from harmony_cli.sim.video import VideoRecorder
+
+
+Attempt = Callable[[str, Callable[[], object]], object]  # (file, its write): a run's end tries each (faults.Writes)
+
+
+def _now(what: str, write: Callable[[], object]) -> object:
+    return write()
+
+
+def write_results(
+    out: Path,
+    scenario: Scenario,
+    scenario_dir: Path,
+    rows: list[dict],
+    summary: dict,
+    meta: dict,
+    twin: pd.DataFrame | None,
+    attempt: Attempt = _now,
+) -> pd.DataFrame:
+    """steps.csv (with push displacements from the twin), the summary's metrics, summary.json and meta.json, each
+    written through `attempt` (at a run's end: one that fails does not stop the others)."""
+    import pandas as pd
+
+    from harmony_cli.report.metrics import displacement_from_twin
+    from harmony_cli.report.summary import summarise_run
+
+    steps = pd.DataFrame(rows)
+    hands = list(scenario.robot.end_effectors)
+    if len(steps) and twin is not None:
+        steps = displacement_from_twin(steps, twin, hands)
+    attempt("steps.csv", lambda: steps.to_csv(out / "steps.csv", index=False))
+    if len(steps):
+        urdf = robot_of(scenario, scenario_dir).urdf
+        pushed = {
+            p.name: hand_below(p.link, urdf, scenario.robot.end_effectors)
+            if p.body == "robot" and p.link is not None
+            else None
+            for p in scenario.pushes
+        }
+        summary |= summarise_run(steps, scenario, hands, pushed)
+    attempt("meta.json", lambda: write_whole(out / "meta.json", json.dumps(meta, indent=2)))
+    attempt("summary.json", lambda: write_whole(out / "summary.json", json.dumps(summary, indent=2)))
+    return steps
+
+
+def finish_run(
+    out: Path,
+    scenario: Scenario,
+    scenario_dir: Path,
+    rows: list[dict],
+    summary: dict,
+    meta: dict,
+    twin: pd.DataFrame | None,
+    opened: tuple[IO[str], StepStream, VideoRecorder | None],
+    writes: Writes,
+    plots: str = "all",
+) -> None:
+    """Every result of a run that can be written (a run that fails part-way keeps its video up to there); the
+    plots as `plots` asks (all | failed | none)."""
+    log, stream, recorder = opened
+    writes(STREAM, stream.close)
+    if recorder and (video := writes("video", recorder.close)) is not None:
+        summary["video"] = str(video)
+    steps = write_results(out, scenario, scenario_dir, rows, summary, meta, twin, writes)
+    writes("run.log", lambda: log.write(f"status: {summary['status']}\n"))
+    writes("run.log", log.close)
+    if len(steps) and (plots == "all" or plots == "failed" and not succeeded(summary)):
+        from harmony_cli.report.plots import plot_run_dir  # matplotlib: ~1 s to import
+
+        writes("plots", lambda: plot_run_dir(out, steps, scenario, summary))
+    if writes.reason is not None:  # a write failed after summary.json was: it says so now
+        writes("summary.json", lambda: write_whole(out / "summary.json", json.dumps(summary, indent=2)))
+
+
+def succeeded(summary: dict) -> bool:
+    """A run that completed, with its task's success (a hand trajectory: no failed solve)."""
+    task = summary.get("task")
+    ok = task.get("success") if task is not None else summary.get("failed_solves") == 0
+    return summary.get("status") == "completed" and bool(ok)
