@@ -19,13 +19,19 @@ from harmony_cli.study.spec import StudySpec
 KEY_CHARS = 16
 
 
+NOT_IN_A_RUN = ("cli.py", "console.py", "commands", "study/report.py")  # what prints or reports, not what runs
+
+
 @cache
 def code_version() -> str:
-    """harmony's version and a hash of its source (Python files and robot presets): any edit changes it."""
+    """harmony's version and a hash of the source a run executes (Python files and robot presets): an edit there
+    changes it; one to the command line or the study report does not."""
     root = Path(harmony_cli.__file__).parent
     digest = hashlib.sha256()
     for path in sorted(p for p in root.rglob("*") if p.suffix in (".py", ".yaml", ".urdf") and p.is_file()):
-        digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
+        name = path.relative_to(root).as_posix()
+        if not any(name == skip or name.startswith(f"{skip}/") for skip in NOT_IN_A_RUN):
+            digest.update(name.encode() + b"\0" + path.read_bytes() + b"\0")
     return f"{getattr(harmony_cli, '__version__', '0')}+{digest.hexdigest()[:12]}"
 
 

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import yaml
 
 from harmony_cli.report.figure import plt, save
 from harmony_cli.study.table import TABLE
@@ -71,7 +72,9 @@ def write_report(study: Path) -> list[Path]:
     """report.md, outcomes.png, metrics.png and success_vs_<field>.png in the study directory."""
     table = pd.read_parquet(study / TABLE)
     rates = success_rates(table)
-    lines = [f"# Study {study.name}", "", f"{len(table)} runs ({TABLE}; one row per run).", ""]
+    spec = study / "study.yaml"  # the study file as run
+    name = yaml.safe_load(spec.read_text()).get("name", study.name) if spec.is_file() else study.name
+    lines = [f"# Study {name}", "", f"{len(table)} runs ({TABLE}; one row per run).", ""]
     lines += ["## Success rate (Wilson 95 % interval)", "", "| grid point | runs | successes | rate | 95 % interval |"]
     lines += ["|---|---:|---:|---:|---|"]
     lines += [
@@ -92,7 +95,8 @@ def write_report(study: Path) -> list[Path]:
             values = metric(runs, column).dropna() * scale
             if len(values):
                 q = np.percentile(values, [50, 95, 100])
-                lines.append(f"| {what} [{unit}] | {point} | {len(values)} | {q[0]:.3g} | {q[1]:.3g} | {q[2]:.3g} |")
+                label = f"{what} [{unit}]" if unit else what
+                lines.append(f"| {label} | {point} | {len(values)} | {q[0]:.3g} | {q[1]:.3g} | {q[2]:.3g} |")
     failed = table[table["outcome"] != "success"]
     lines += ["", f"## Runs that did not succeed ({len(failed)})", ""]
     if len(failed):
@@ -162,8 +166,8 @@ def _plot_success_vs(table: pd.DataFrame, column: str, study: Path, bins: int = 
                 lo, hi = wilson(int(hits.sum()), len(hits))
                 centres.append((edges[b] + edges[b + 1]) / 2)
                 rate.append(hits.mean())
-                low.append(hits.mean() - lo)
-                high.append(hi - hits.mean())
+                low.append(max(0.0, hits.mean() - lo))  # rounding can put the rate a hair outside its interval
+                high.append(max(0.0, hi - hits.mean()))
         ax.errorbar(centres, rate, yerr=[low, high], marker="o", capsize=3, label=f"{point} rate (Wilson 95 %)")
     ax.set_xlabel(column.removeprefix("vary."))
     ax.set_ylabel("success")
