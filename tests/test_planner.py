@@ -8,6 +8,7 @@ import pytest
 from harmony_cli.maths.bezier import difference_matrix, evaluate
 from harmony_cli.maths.shapes import Shape
 from harmony_cli.mpc.planner import HandState, Obstacle, TaskPlanner
+from harmony_cli.mpc.problem import NoPlanToHold
 from harmony_cli.scenario import PlannerSpec
 
 SPEC = PlannerSpec()
@@ -87,7 +88,7 @@ def _assert_plan_goes_around(obstacle: Obstacle):
 
 @pytest.mark.xfail(
     strict=True,
-    raises=RuntimeError,
+    raises=NoPlanToHold,
     reason=(
         "planner limit (global guidance is issue 14): it is a local SQP linearised at the straight line; with the "
         "cylinder centred on it the carried object's distance gradient points along the path, the QP is infeasible at "

@@ -115,6 +115,14 @@ def test_a_solver_that_keeps_raising_fails_the_run_after_a_second_of_held_plans(
     assert f"held for at most {MAX_HELD_S:g} s" in summary["reason"]
 
 
+def test_a_first_solve_that_fails_leaves_no_plan_to_hold_and_fails_the_run_as_a_solver_fault(monkeypatch, tmp_path):
+    _faulty_solver(monkeypatch, 0, np.inf, "raise")
+    code, lines, summary, steps = _run(tmp_path / "run")
+    assert code == 1 and len(lines) == 1 and "first whole-body MPC solve failed" in lines[0], lines
+    assert (summary["status"], summary["failure"]) == ("failed", "solver")  # was "error": a bare RuntimeError
+    assert "no plan to hold; stopped before its first step" in summary["reason"] and len(steps) == 0
+
+
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")  # numpy's on the overflow injected ("huge")
 @pytest.mark.parametrize("kind, status", [("nan", "non-finite solution"), ("huge", "non-finite command")])
 def test_a_nan_solution_or_command_never_reaches_the_simulator_and_the_last_plan_is_held(

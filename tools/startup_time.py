@@ -29,6 +29,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from harmony_cli.experiment.run_dir import cpu_model
+
 
 def first_step_clock(out: Path) -> float | None:
     """Unix time of the first control step's record in run directory `out` (None: no step was recorded)."""
@@ -91,16 +93,6 @@ def describe(name: str, values: list[float]) -> str:
     )
 
 
-def cpu() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return "unknown CPU"
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--runs", type=int, default=5, help="runs of the command (default 5)")
@@ -113,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("give the command after --, e.g. -- .venv/bin/harmony run scenarios/smoke/box_lift.yaml --quiet")
     scratch = Path(tempfile.mkdtemp(prefix="harmony-startup-"))
     root = given_out(command) or scratch
-    print(f"{cpu()}, {os.cpu_count()} cores; load average {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
+    print(f"{cpu_model()}, {os.cpu_count()} cores; load average {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
     print(f"{' '.join(command)}  ({'empty cache per run' if args.empty_cache else 'warm cache'}, {args.runs} runs)")
     first, total = [], []
     try:

@@ -10,6 +10,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TypeVar
 
+from harmony_cli.mpc.problem import NoPlanToHold
 from harmony_cli.sim.simulation import Simulation, SimulatorError
 
 T = TypeVar("T")
@@ -82,6 +83,8 @@ def fault_of(exc: BaseException, out: Path, rows: list[dict], sim: Simulation | 
         category, reason = write_failure(out, exc.filename or "the run's files", exc)
         return category, f"{reason}; stopped {stopped_at(rows)}"
     text = str(exc).strip().splitlines()[-1] if str(exc).strip() else ""
+    if isinstance(exc, NoPlanToHold):
+        return "solver", f"{text}; stopped {stopped_at(rows)}"
     if isinstance(exc, SimulatorError):
         lost = sim is not None and not sim.connected
         return "simulator", f"simulator {'connection lost' if lost else 'error'} ({text}); stopped {stopped_at(rows)}"

@@ -43,7 +43,8 @@ def _git_sha() -> str:
         return "unknown"
 
 
-def _cpu() -> str:
+def cpu_model() -> str:
+    """The CPU's model name (every timing is stated with it)."""
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
             if line.startswith("model name"):
@@ -64,7 +65,7 @@ def machine_meta(concurrency: int) -> dict:
         "python": platform.python_version(),
         "packages": versions,
         "git_sha": _git_sha(),
-        "cpu": _cpu(),
+        "cpu": cpu_model(),
         "cores": os.cpu_count(),
         "host": platform.node(),
         "concurrency": concurrency,

@@ -29,6 +29,7 @@ from harmony_cli.maths.bezier import bernstein_basis, difference_matrix, shift_m
 from harmony_cli.maths.rotations import rot_z
 from harmony_cli.maths.shapes import Shape
 from harmony_cli.mpc.codegen import Buffered
+from harmony_cli.mpc.problem import NoPlanToHold
 
 if TYPE_CHECKING:
     from harmony_cli.scenario.models import PlannerSpec
@@ -201,7 +202,7 @@ class TaskPlanner:
         if success:
             self.C, self.phase, self.t_plan, self.T_plan = C, phase, t, T
         if self.C is None:
-            raise RuntimeError(f"first planner solve failed ({status}); no plan to hold")
+            raise NoPlanToHold(f"first planner solve failed ({status}); no plan to hold")
         plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
         return PlannerResult(plan, success, status, it, time.perf_counter() - start_time, clearance)
 

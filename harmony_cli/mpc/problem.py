@@ -16,6 +16,10 @@ from harmony_cli.mpc.codegen import Buffered, Compiling
 Margins = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
+class NoPlanToHold(RuntimeError):
+    """An MPC's first solve failed: there is no earlier plan to hold, so the run cannot go on (a solver fault)."""
+
+
 @dataclass
 class Problem:
     """A built MPC problem: f = sum of named terms = ||r_task(q_k)||^2 summed over knots + ||L x + c + S p||^2,

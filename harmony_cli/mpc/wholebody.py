@@ -10,7 +10,7 @@ import numpy as np
 
 from harmony_cli.maths.filters import LowPass
 from harmony_cli.mpc.clearance import scene_clearances
-from harmony_cli.mpc.problem import SolveResult
+from harmony_cli.mpc.problem import NoPlanToHold, SolveResult
 from harmony_cli.mpc.registry import make_solver
 from harmony_cli.mpc.structures import structure_for
 from harmony_cli.mpc.wholebody_problem import joint_limits
@@ -104,7 +104,7 @@ class WholeBodyMPC:
         if command is not None:  # a command the simulator must never get: a failed solve too
             result = replace(result, success=False, status="non-finite command")
         if self.x is None:
-            raise RuntimeError(f"first whole-body MPC solve failed ({result.status}); no plan to hold")
+            raise NoPlanToHold(f"first whole-body MPC solve failed ({result.status}); no plan to hold")
         # A held plan is read out from its shifted copy: it continues from where it was, not from q_now.
         self.x = t.shift(self.x, dt)
         return self._command(self.x, held=True), result

@@ -63,6 +63,7 @@ def run_row(run: PlannedRun, run_dir: Path) -> dict[str, Any]:
         summary = json.loads((run_dir / "summary.json").read_text())
     except (OSError, ValueError):
         summary = {"status": "not run" if not run_dir.is_dir() else "killed"}
+    result = outcome(summary)
     row: dict[str, Any] = {
         "sample": run.sample.index,
         "point": run.label,
@@ -70,8 +71,8 @@ def run_row(run: PlannedRun, run_dir: Path) -> dict[str, Any]:
         "run_dir": str(run_dir),
         "status": summary.get("status"),
         "failure": summary.get("failure"),
-        "outcome": outcome(summary),
-        "success": outcome(summary) == "success" if summary.get("status") not in NOT_RUN else None,
+        "outcome": result,
+        "success": result == "success" if summary.get("status") not in NOT_RUN else None,
         "reason": summary.get("reason") or summary.get("error"),
         "resamples": len(run.sample.rejected),
     }
