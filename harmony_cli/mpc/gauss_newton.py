@@ -15,6 +15,9 @@ from harmony_cli.mpc.codegen import Buffered
 from harmony_cli.mpc.knot_derivatives import shared_constraints, shared_derivatives
 from harmony_cli.mpc.problem import Problem, SolveContext, SolveResult
 from harmony_cli.mpc.reduction import Reduction
+from harmony_cli.mpc.row_screen import ScreenedQP
+
+SCREENED = ("daqp", "qpoases")  # dense active-set solvers: their cost grows with the rows they are given
 
 
 class GaussNewtonSolver:
@@ -45,57 +48,68 @@ class GaussNewtonSolver:
         return SolveContext(self.problem, self.path, None if self.constraints is None else self.constraints.margins)
 
     def _qp(self, free: np.ndarray):
-        """(QP solver, Reduction, kept Hessian nonzeros, their diagonal, constraint Jacobian nonzeros), built once
-        per pattern. The QP's rows are the reduced linear rows, then the linearised constraints (values each
-        iteration): the matrix's nonzeros in CCS order come from A (code < 0) or from C[:, free] (code > 0)."""
+        """(QP, Reduction, kept Hessian nonzeros, their diagonal, how the constraint rows get their values), built
+        once per pattern. The QP's rows are the reduced linear rows, then the linearised constraints."""
         if free.tobytes() not in self._qps:
             r, rows, cols, index = Reduction(self.problem.A, free), self.model.rows, self.model.cols, np.cumsum(free)
             kept = np.flatnonzero(free[rows] & free[cols])  # still in CCS order
             h = cs.Sparsity.triplet(r.n, r.n, (index[rows[kept]] - 1).tolist(), (index[cols[kept]] - 1).tolist())
-            codes = r.A_free.copy()
-            codes.data = -1.0 - np.arange(codes.nnz)
-            if self.constraints is not None:
-                pattern = self.constraints.pattern[:, free]
-                dense = np.where(pattern, 1.0 + np.arange(pattern.size).reshape(pattern.shape), 0.0)
-                codes = sp.vstack([codes, sp.csc_matrix(dense)]).tocsc()
-            codes.sort_indices()
-            a = cs.Sparsity(*codes.shape, codes.indptr.tolist(), codes.indices.tolist())
-            solver = Buffered(cs.conic("gn_qp", self.qp_name, {"h": h, "a": a}, self.options))
-            from_a = codes.data < 0
-            solver.args["a"][from_a] = r.A_free.data[(-codes.data[from_a] - 1).astype(int)]
-            from_c = np.flatnonzero(~from_a), (codes.data[~from_a] - 1).astype(int)  # slot, entry of C[:, free]
-            if self.constraints is not None:  # each entry's source in the per-knot Jacobians
-                n_free = int(free.sum())
-                source = self.constraints.entries(from_c[1] // n_free, np.flatnonzero(free)[from_c[1] % n_free])
-                from_c = from_c[0], source
-            self._qps[free.tobytes()] = solver, r, kept, np.flatnonzero(rows[kept] == cols[kept]), from_c
+            diagonal = np.flatnonzero(rows[kept] == cols[kept])
+            if self.qp_name in SCREENED:  # dense rows, only those that can matter (mpc/row_screen.py)
+                m = r.A_free.shape[0] + (0 if self.constraints is None else self.constraints.n_rows)
+                screened = ScreenedQP(self.qp_name, self.options, h, m)
+                self._qps[free.tobytes()] = screened, r, kept, diagonal, r.A_free.toarray()
+            else:
+                solver, from_c = self._sparse_qp(free, r, h)
+                self._qps[free.tobytes()] = solver, r, kept, diagonal, from_c
         return self._qps[free.tobytes()]
+
+    def _sparse_qp(self, free: np.ndarray, r: Reduction, h: cs.Sparsity):
+        """A sparse QP over every row: the matrix's nonzeros in CCS order come from A (code < 0) or from C[:, free]
+        (code > 0); returns (solver, the constraint entries' (slots, sources))."""
+        codes = r.A_free.copy()
+        codes.data = -1.0 - np.arange(codes.nnz)
+        if self.constraints is not None:
+            pattern = self.constraints.pattern[:, free]
+            dense = np.where(pattern, 1.0 + np.arange(pattern.size).reshape(pattern.shape), 0.0)
+            codes = sp.vstack([codes, sp.csc_matrix(dense)]).tocsc()
+        codes.sort_indices()
+        a = cs.Sparsity(*codes.shape, codes.indptr.tolist(), codes.indices.tolist())
+        solver = Buffered(cs.conic("gn_qp", self.qp_name, {"h": h, "a": a}, self.options))
+        from_a = codes.data < 0
+        solver.args["a"][from_a] = r.A_free.data[(-codes.data[from_a] - 1).astype(int)]
+        from_c = np.flatnonzero(~from_a), (codes.data[~from_a] - 1).astype(int)  # slot, entry of C[:, free]
+        if self.constraints is not None:  # each entry's source in the per-knot Jacobians
+            n_free = int(free.sum())
+            source = self.constraints.entries(from_c[1] // n_free, np.flatnonzero(free)[from_c[1] % n_free])
+            from_c = from_c[0], source
+        return solver, from_c
 
     def solve(self, x0, lbx, ubx, p) -> SolveResult:
         built = time.perf_counter()
         free = lbx < ubx
-        qp, r, kept, diagonal, (c_slots, c_source) = self._qp(free)
+        qp, r, kept, diagonal, rows_from = self._qp(free)
         start = time.perf_counter()
         build_time = start - built  # microseconds unless this pattern is new
         x = np.clip(x0, lbx, ubx)  # the fixed variables are exact from here on
-        status, success = "max_iter", False
+        status, success, qp_rows, qp_solves = "max_iter", False, 0, 0
         for it in range(1, self.max_iter + 1):  # noqa: B007 - the count is returned
             _, g, vals = self.model.evaluate(x, p)
             h = vals[kept]
             h[diagonal] += self.regularisation
-            lba, uba = r.rows(self.problem.lb, self.problem.ub, x)
-            if self.constraints is not None:  # h + C dz >= lower
-                value, lower, qp.args["a"][c_slots] = self.constraints.evaluate_entries(x, p, c_source)
-                lba, uba = np.concatenate([lba, lower - value]), np.concatenate([uba, np.full(value.size, np.inf)])
-            out = qp(h=h, g=g[free], lba=lba, uba=uba, lbx=lbx[free] - x[free], ubx=ubx[free] - x[free])
-            stats = qp.stats()
-            if not stats["success"]:
-                status, success = f"qp_failed: {stats.get('return_status', '?')}", False
+            bounds = h, g[free], lbx[free] - x[free], ubx[free] - x[free]
+            if isinstance(qp, ScreenedQP):
+                dz, failure, rows, solves = self._screened_step(qp, rows_from, r, x, p, free, bounds)
+            else:
+                dz, failure, rows, solves = self._sparse_step(qp, rows_from, r, x, p, bounds)
+            qp_rows, qp_solves = qp_rows + rows, qp_solves + solves
+            if dz is None:
+                status, success = f"qp_failed: {failure}", False
                 break
-            x[free] += out["x"]
+            x[free] += dz
             if self.max_iter == 1:
                 status, success = "rti_step", True
-            elif np.max(np.abs(out["x"])) < self.tol:
+            elif np.max(np.abs(dz)) < self.tol:
                 status, success = "converged", True
                 break
         return SolveResult(
@@ -109,4 +123,33 @@ class GaussNewtonSolver:
             p.copy(),
             lbx.copy(),
             ubx.copy(),
+            qp_rows,
+            qp_solves,
         )
+
+    def _screened_step(self, qp: ScreenedQP, A_free: np.ndarray, r: Reduction, x, p, free, bounds):
+        """(step or None, the solver's failure status, rows solved, QPs solved) of a dense QP over the rows that
+        can matter (mpc/row_screen.py): the same optimum as over every row."""
+        lba, uba = r.rows(self.problem.lb, self.problem.ub, x)
+        G = A_free
+        if self.constraints is not None:  # h + C dz >= lower
+            value, lower, C = self.constraints.evaluate(x, p)
+            G = np.vstack([A_free, C[:, free]])
+            lba, uba = np.concatenate([lba, lower - value]), np.concatenate([uba, np.full(value.size, np.inf)])
+        h, g, lbx, ubx = bounds
+        out = qp.solve(h, g, lbx, ubx, G, lba, uba)
+        return (out.z if out.success else None), out.status, out.rows, out.solves
+
+    def _sparse_step(self, qp: Buffered, from_c, r: Reduction, x, p, bounds):
+        """(step or None, the solver's failure status, rows, 1) of a sparse QP over every row."""
+        c_slots, c_source = from_c
+        lba, uba = r.rows(self.problem.lb, self.problem.ub, x)
+        if self.constraints is not None:  # h + C dz >= lower
+            value, lower, qp.args["a"][c_slots] = self.constraints.evaluate_entries(x, p, c_source)
+            lba, uba = np.concatenate([lba, lower - value]), np.concatenate([uba, np.full(value.size, np.inf)])
+        h, g, lbx, ubx = bounds
+        out = qp(h=h, g=g, lba=lba, uba=uba, lbx=lbx, ubx=ubx)
+        stats = qp.stats()
+        if not stats["success"]:
+            return None, stats.get("return_status", "?"), lba.size, 1
+        return out["x"], "", lba.size, 1

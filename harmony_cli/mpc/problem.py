@@ -120,6 +120,8 @@ class SolveResult:
     p: np.ndarray | None = field(default=None, repr=False, compare=False)  # the parameters and bounds it solved
     lbx: np.ndarray | None = field(default=None, repr=False, compare=False)  # with (copies)
     ubx: np.ndarray | None = field(default=None, repr=False, compare=False)
+    qp_rows: int = 0  # rows of the QPs solved, summed over iterations (harmony's Gauss-Newton modes)
+    qp_solves: int = 0  # QPs solved (more than the iterations when a screened QP had to add rows)
 
     @property
     def path(self) -> str:

@@ -1,0 +1,57 @@
+"""The screened dense QP (mpc/row_screen.py) finds the optimum of the QP over all its rows."""
+
+import casadi as cs
+import numpy as np
+import pytest
+
+from harmony_cli.mpc.row_screen import ScreenedQP
+
+
+def _random_qp(rng: np.random.Generator, n: int, m: int):
+    """A strictly convex QP whose rows have random slack at z = 0: some bind at the optimum, most do not."""
+    M = rng.standard_normal((n, n))
+    H = M @ M.T + n * np.eye(n)
+    G = rng.standard_normal((m, n))
+    lo = -rng.uniform(0.05, 5.0, m)
+    hi = np.where(rng.random(m) < 0.5, -lo, np.inf)
+    return H, 10.0 * rng.standard_normal(n), G, lo, hi
+
+
+def _full_qp(H, g, G, lo, hi, solver: str) -> np.ndarray:
+    structure = {"h": cs.Sparsity.dense(*H.shape), "a": cs.Sparsity.dense(*G.shape)}
+    qp = cs.conic("full", solver, structure, _OPTIONS[solver])
+    return np.array(qp(h=H, g=g, a=G, lba=lo, uba=hi, lbx=-np.inf, ubx=np.inf)["x"]).ravel()
+
+
+_OPTIONS = {"daqp": {"error_on_fail": True}, "qpoases": {"printLevel": "none", "error_on_fail": True}}
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_screened_qp_equals_the_full_qp_over_a_sequence_of_steps(seed):
+    """Solved again and again with new data (as in an MPC), the screened QP's solution is the full QP's, from two
+    different solvers, while it gives its solver fewer rows than there are."""
+    rng = np.random.default_rng(seed)
+    n, m = 30, 120
+    H, g, G, lo, hi = _random_qp(rng, n, m)
+    screened = ScreenedQP("daqp", {"error_on_fail": False}, cs.Sparsity.dense(n, n), m)
+    rows = []
+    for _ in range(8):
+        g = g + rng.standard_normal(n)  # the next step: a moved target, nearby linearisation
+        G = G + 0.05 * rng.standard_normal(G.shape)
+        out = screened.solve(H.ravel("F"), g, np.full(n, -np.inf), np.full(n, np.inf), G, lo, hi)
+        assert out.success
+        np.testing.assert_allclose(out.z, _full_qp(H, g, G, lo, hi, "daqp"), rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(out.z, _full_qp(H, g, G, lo, hi, "qpoases"), rtol=1e-6, atol=1e-6)
+        rows.append(out.rows)
+    assert rows[0] == m and min(rows[1:]) < m
+
+
+def test_a_dropped_row_that_the_step_violates_is_added():
+    """A row far from its bound at the last step but crossed by the next one is found and added (two QPs)."""
+    n = 4
+    screened = ScreenedQP("daqp", {"error_on_fail": False}, cs.Sparsity.dense(n, n), 1)
+    H, G, lo, hi = np.eye(n).ravel("F"), np.array([[1.0, 0, 0, 0]]), np.array([-np.inf]), np.array([1.0])
+    first = screened.solve(H, np.full(n, -0.1), np.full(n, -np.inf), np.full(n, np.inf), G, lo, hi)
+    assert first.rows == 1 and first.z[0] == pytest.approx(0.1)  # the first solve keeps every row
+    second = screened.solve(H, np.array([-5.0, 0, 0, 0]), np.full(n, -np.inf), np.full(n, np.inf), G, lo, hi)
+    assert second.solves == 2 and second.z[0] == pytest.approx(1.0)
