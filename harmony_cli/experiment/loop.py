@@ -36,28 +36,42 @@ def run_loop(
     """Run the whole scenario; every step's record goes to `record` as soon as it exists (nothing is lost).
 
     `loop_ms` is the wall time from the observation to the command: references (planner) + obstacle prediction +
-    whole-body MPC. The record (ground truth from `sim.truth()`, `watch`, cost terms) is built outside it.
+    whole-body MPC. The record (ground truth from `sim.truth()`, `watch`, cost terms) is built outside it. Each
+    record breaks the step down: `sense_ms` (observation), `planner_ms` (if any), `wbmpc_ms` (whole-body MPC with
+    its read-out), `qp_rows` / `qp_solves`; and the step before's parts that come after a record:
+    `previous_log_ms` (ground truth, record, health check) and `previous_physics_ms` (command and physics).
     `predict` (moving obstacles) gives the whole-body MPC the obstacles' centres at t + its knot times. `health`
     checks every step's measurement (after its record: the steps log shows what diverged) before its command."""
     n_steps = int(round(duration / control_dt))
+    previous = {"physics_ms": 0.0, "log_ms": 0.0}  # the step before's parts that come after its record
     for step in range(n_steps):
         t = step * control_dt
+        sensed = time.perf_counter()
         obs = sim.observe()  # the MPC always starts from the measured state
         start = time.perf_counter()
         targets = references(t, obs, mpc.knot_times)
         if predict is not None:
             mpc.set_obstacle_centres(predict(t + mpc.knot_times))
+        solve = time.perf_counter()
         command, result = mpc.step(
             obs.q, hand_rows(targets.positions, targets.rotations), targets.force_ref, obs.pad_forces
         )
-        loop_ms = 1e3 * (time.perf_counter() - start)
+        end = time.perf_counter()
         truth = sim.truth()
         watched = watch(t, obs, truth) if watch else {}
-        record(step_record(step, t, loop_ms, mpc, obs, targets, command, result, truth, watched))
+        timing = {
+            "sense_ms": 1e3 * (start - sensed),
+            "wbmpc_ms": 1e3 * (end - solve),
+            "qp_rows": result.qp_rows,
+            "qp_solves": result.qp_solves,
+        } | {f"previous_{k}": v for k, v in previous.items()}
+        record(step_record(step, t, 1e3 * (end - start), mpc, obs, targets, command, result, truth, watched | timing))
         if health is not None:
             health.check(t, obs.q, obs.hand_positions, targets.now)
         if not (np.isfinite(command.q).all() and np.isfinite(command.qd).all()):  # never sent to the simulator
             raise RunFault("solver", f"a non-finite command at t = {t:.2f} s (whole-body MPC: {result.status})")
+        physics = time.perf_counter()
         sim.apply(command.q, command.qd)
         sim.step(substeps)
+        previous = {"physics_ms": 1e3 * (time.perf_counter() - physics), "log_ms": 1e3 * (physics - end)}
         on_step(step + 1, n_steps)
