@@ -25,6 +25,7 @@ def test_run_writes_a_self_describing_run_directory(tmp_path):
         "solve_time.png",
         "hand_paths.png",
         "tracking_error.png",
+        "loop_time.png",
     ):
         assert (out / name).exists(), name
     summary = json.loads((out / "summary.json").read_text())
@@ -45,6 +46,10 @@ def test_run_writes_a_self_describing_run_directory(tmp_path):
         "left_force_normal_N",
         "right_force_z_N",
     } <= set(steps.columns)
+    # each step's breakdown: the whole-body MPC's part of the loop is inside it, every part took time
+    parts = ["sense_ms", "wbmpc_ms", "previous_log_ms", "previous_physics_ms"]
+    assert (steps["wbmpc_ms"] <= steps["loop_ms"]).all() and (steps[parts].iloc[1:] > 0).all().all()
+    assert (steps["qp_solves"] >= 1).all()
     assert "mpc.knots=8" in (out / "overrides.yaml").read_text()
     # the resolved scenario re-runs from the run directory alone
     again = runner.invoke(app, ["validate", str(out / "scenario.resolved.yaml")])

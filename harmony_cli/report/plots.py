@@ -10,16 +10,18 @@ import pandas as pd
 from harmony_cli.report.figure import plt, save
 from harmony_cli.report.force_plots import plot_forces, plot_push
 from harmony_cli.report.scene_plots import plot_top_down
+from harmony_cli.report.timing_plots import plot_loop_time
 
 if TYPE_CHECKING:
     from harmony_cli.scenario import Scenario
 
 
 def plot_run_dir(out: Path, steps: pd.DataFrame, scenario: Scenario, summary: dict) -> None:
-    """Every figure of a run directory: solve time, hand paths, tracking error; the top-down view of a task; force
-    tracking and each push's response when the run has them."""
+    """Every figure of a run directory: solve time, loop time, hand paths, tracking error; the top-down view of a
+    task; force tracking and each push's response when the run has them."""
     hands = list(scenario.robot.end_effectors)
     plot_run(out, steps, hands)
+    plot_loop_time(out, steps, scenario.sim.control_dt)
     if scenario.task is not None:
         plot_top_down(out, steps, scenario, hands)
     if scenario.pushes or any(c.endswith("_force_ref_N") for c in steps.columns):
