@@ -37,10 +37,13 @@ def plot_loop_time(out: Path, steps: pd.DataFrame, control_dt: float) -> None:
     hist.legend(fontsize=8)
     values = {label: steps[column].dropna().to_numpy() for column, label in parts.items()}
     y = np.arange(len(values))
-    for offset, (name, stat) in enumerate(
-        (("median", np.median), ("p99", lambda v: np.percentile(v, 99)), ("max", np.max))
-    ):
-        bars.barh(y + 0.27 * (offset - 1), [stat(v) for v in values.values()], height=0.27, label=name)
+    stats = {
+        "median": [float(np.median(v)) for v in values.values()],
+        "p99": [float(np.percentile(v, 99)) for v in values.values()],
+        "max": [float(np.max(v)) for v in values.values()],
+    }
+    for offset, (name, stat) in enumerate(stats.items()):
+        bars.barh(y + 0.27 * (offset - 1), stat, height=0.27, label=name)
     bars.set_yticks(y, list(values))
     bars.invert_yaxis()
     bars.set(xlabel="time per step [ms]", xscale="log", title="Where a step's time goes")
