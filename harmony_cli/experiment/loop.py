@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import gc
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -18,6 +20,7 @@ from harmony_cli.tasks.motion import Predictor
 from harmony_cli.tasks.targets import References
 
 Watch = Callable[[float, Observation, Truth], dict]  # logged fields from ground truth (e.g. the box: dropped?)
+FREEZE_EVERY = 50  # steps between moving what survived (the records) out of the garbage collector's scans
 
 
 def run_loop(
@@ -35,43 +38,60 @@ def run_loop(
 ) -> None:
     """Run the whole scenario; every step's record goes to `record` as soon as it exists (nothing is lost).
 
-    `loop_ms` is the wall time from the observation to the command: references (planner) + obstacle prediction +
-    whole-body MPC. The record (ground truth from `sim.truth()`, `watch`, cost terms) is built outside it. Each
-    record breaks the step down: `sense_ms` (observation), `planner_ms` (if any), `wbmpc_ms` (whole-body MPC with
-    its read-out), `qp_rows` / `qp_solves`; and the step before's parts that come after a record:
-    `previous_log_ms` (ground truth, record, health check) and `previous_physics_ms` (command and physics).
+    `loop_ms`: wall time from the observation to the command (references, obstacle prediction, whole-body MPC);
+    the record (ground truth, `watch`, cost terms) is built outside it. A record's breakdown: `sense_ms`,
+    `planner_ms` (if any), `wbmpc_ms`, `qp_rows`, `qp_solves`, and the step before's `previous_log_ms` (truth,
+    record, health) and `previous_physics_ms` (command and physics), which come after its record.
     `predict` (moving obstacles) gives the whole-body MPC the obstacles' centres at t + its knot times. `health`
     checks every step's measurement (after its record: the steps log shows what diverged) before its command."""
     n_steps = int(round(duration / control_dt))
     previous = {"physics_ms": 0.0, "log_ms": 0.0}  # the step before's parts that come after its record
-    for step in range(n_steps):
-        t = step * control_dt
-        sensed = time.perf_counter()
-        obs = sim.observe()  # the MPC always starts from the measured state
-        start = time.perf_counter()
-        targets = references(t, obs, mpc.knot_times)
-        if predict is not None:
-            mpc.set_obstacle_centres(predict(t + mpc.knot_times))
-        solve = time.perf_counter()
-        command, result = mpc.step(
-            obs.q, hand_rows(targets.positions, targets.rotations), targets.force_ref, obs.pad_forces
-        )
-        end = time.perf_counter()
-        truth = sim.truth()
-        watched = watch(t, obs, truth) if watch else {}
-        timing = {
-            "sense_ms": 1e3 * (start - sensed),
-            "wbmpc_ms": 1e3 * (end - solve),
-            "qp_rows": result.qp_rows,
-            "qp_solves": result.qp_solves,
-        } | {f"previous_{k}": v for k, v in previous.items()}
-        record(step_record(step, t, 1e3 * (end - start), mpc, obs, targets, command, result, truth, watched | timing))
-        if health is not None:
-            health.check(t, obs.q, obs.hand_positions, targets.now)
-        if not (np.isfinite(command.q).all() and np.isfinite(command.qd).all()):  # never sent to the simulator
-            raise RunFault("solver", f"a non-finite command at t = {t:.2f} s (whole-body MPC: {result.status})")
-        physics = time.perf_counter()
-        sim.apply(command.q, command.qd)
-        sim.step(substeps)
-        previous = {"physics_ms": 1e3 * (time.perf_counter() - physics), "log_ms": 1e3 * (physics - end)}
-        on_step(step + 1, n_steps)
+    with collector_frozen():
+        for step in range(n_steps):
+            t = step * control_dt
+            sensed = time.perf_counter()
+            obs = sim.observe()  # the MPC always starts from the measured state
+            start = time.perf_counter()
+            targets = references(t, obs, mpc.knot_times)
+            if predict is not None:
+                mpc.set_obstacle_centres(predict(t + mpc.knot_times))
+            solve = time.perf_counter()
+            command, result = mpc.step(
+                obs.q, hand_rows(targets.positions, targets.rotations), targets.force_ref, obs.pad_forces
+            )
+            end = time.perf_counter()
+            truth = sim.truth()
+            watched = watch(t, obs, truth) if watch else {}
+            timing = {
+                "sense_ms": 1e3 * (start - sensed),
+                "wbmpc_ms": 1e3 * (end - solve),
+                "qp_rows": result.qp_rows,
+                "qp_solves": result.qp_solves,
+            } | {f"previous_{k}": v for k, v in previous.items()}
+            record(
+                step_record(step, t, 1e3 * (end - start), mpc, obs, targets, command, result, truth, watched | timing)
+            )
+            if health is not None:
+                health.check(t, obs.q, obs.hand_positions, targets.now)
+            if not (np.isfinite(command.q).all() and np.isfinite(command.qd).all()):  # never sent to the simulator
+                raise RunFault("solver", f"a non-finite command at t = {t:.2f} s (whole-body MPC: {result.status})")
+            if step % FREEZE_EVERY == FREEZE_EVERY - 1:  # young garbage collected, the records kept out of later scans
+                gc.collect(1)
+                gc.freeze()
+            physics = time.perf_counter()
+            sim.apply(command.q, command.qd)
+            sim.step(substeps)
+            previous = {"physics_ms": 1e3 * (time.perf_counter() - physics), "log_ms": 1e3 * (physics - end)}
+            on_step(step + 1, n_steps)
+
+
+@contextmanager
+def collector_frozen() -> Iterator[None]:
+    """The set-up's objects out of the garbage collector's scans (a full collection of them pauses tens of ms
+    mid-loop); back in when the loop ends however it ends."""
+    gc.collect()
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
