@@ -4,7 +4,8 @@ import casadi as cs
 import numpy as np
 import pytest
 
-from harmony_cli.mpc.row_screen import ScreenedQP
+from harmony_cli.mpc.knot_rows import KnotRows
+from harmony_cli.mpc.row_screen import DenseRows, ScreenedQP
 
 
 def _random_qp(rng: np.random.Generator, n: int, m: int):
@@ -38,7 +39,7 @@ def test_screened_qp_equals_the_full_qp_over_a_sequence_of_steps(seed):
     for _ in range(8):
         g = g + rng.standard_normal(n)  # the next step: a moved target, nearby linearisation
         G = G + 0.05 * rng.standard_normal(G.shape)
-        out = screened.solve(H.ravel("F"), g, np.full(n, -np.inf), np.full(n, np.inf), G, lo, hi)
+        out = screened.solve(H.ravel("F"), g, np.full(n, -np.inf), np.full(n, np.inf), DenseRows(G), lo, hi)
         assert out.success
         np.testing.assert_allclose(out.z, _full_qp(H, g, G, lo, hi, "daqp"), rtol=1e-9, atol=1e-9)
         np.testing.assert_allclose(out.z, _full_qp(H, g, G, lo, hi, "qpoases"), rtol=1e-6, atol=1e-6)
@@ -51,7 +52,26 @@ def test_a_dropped_row_that_the_step_violates_is_added():
     n = 4
     screened = ScreenedQP("daqp", {"error_on_fail": False}, cs.Sparsity.dense(n, n), 1)
     H, G, lo, hi = np.eye(n).ravel("F"), np.array([[1.0, 0, 0, 0]]), np.array([-np.inf]), np.array([1.0])
-    first = screened.solve(H, np.full(n, -0.1), np.full(n, -np.inf), np.full(n, np.inf), G, lo, hi)
+    first = screened.solve(H, np.full(n, -0.1), np.full(n, -np.inf), np.full(n, np.inf), DenseRows(G), lo, hi)
     assert first.rows == 1 and first.z[0] == pytest.approx(0.1)  # the first solve keeps every row
-    second = screened.solve(H, np.array([-5.0, 0, 0, 0]), np.full(n, -np.inf), np.full(n, np.inf), G, lo, hi)
+    second = screened.solve(H, np.array([-5.0, 0, 0, 0]), np.full(n, -np.inf), np.full(n, np.inf), DenseRows(G), lo, hi)
     assert second.solves == 2 and second.z[0] == pytest.approx(1.0)
+
+
+def test_knot_rows_act_like_the_dense_rows_they_stand_for():
+    """|G| v, G z and G[rows] from the per-knot Jacobians equal those of G formed whole (as KnotConstraints.evaluate
+    forms C: J_k[j, i] b_k[a] on variable a * n_dof + i), the taken rows to the bit."""
+    rng = np.random.default_rng(3)
+    K, m, nd, npos, extra = 6, 4, 5, 3, 2
+    J, B = rng.standard_normal((K - 1, m, nd)), rng.random((K - 1, npos))
+    free = rng.random(nd * npos + extra) < 0.8
+    A = rng.standard_normal((7, int(free.sum())))
+    C = np.zeros((m * (K - 1), free.size))
+    C[:, : nd * npos] = np.einsum("kji,ka->kjai", J, B).reshape(m * (K - 1), -1)
+    G = np.vstack([A, C[:, free]])
+    rows = KnotRows(A, np.abs(A), J, B, free)
+    v = rng.random(int(free.sum()))
+    np.testing.assert_allclose(rows.reach(v), np.abs(G) @ v, rtol=1e-12)
+    np.testing.assert_allclose(rows.times(v), G @ v, rtol=1e-12)
+    taken = np.sort(rng.choice(G.shape[0], 9, replace=False))
+    assert np.array_equal(rows.take(taken), G[taken])

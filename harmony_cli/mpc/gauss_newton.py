@@ -13,9 +13,10 @@ import scipy.sparse as sp
 
 from harmony_cli.mpc.codegen import Buffered
 from harmony_cli.mpc.knot_derivatives import shared_constraints, shared_derivatives
+from harmony_cli.mpc.knot_rows import KnotRows
 from harmony_cli.mpc.problem import Problem, SolveContext, SolveResult
 from harmony_cli.mpc.reduction import Reduction
-from harmony_cli.mpc.row_screen import ScreenedQP
+from harmony_cli.mpc.row_screen import DenseRows, ScreenedQP
 
 SCREENED = ("daqp", "qpoases")  # dense active-set solvers: their cost grows with the rows they are given
 
@@ -58,7 +59,8 @@ class GaussNewtonSolver:
             if self.qp_name in SCREENED:  # dense rows, only those that can matter (mpc/row_screen.py)
                 m = r.A_free.shape[0] + (0 if self.constraints is None else self.constraints.n_rows)
                 screened = ScreenedQP(self.qp_name, self.options, h, m)
-                self._qps[free.tobytes()] = screened, r, kept, diagonal, r.A_free.toarray()
+                A = r.A_free.toarray()
+                self._qps[free.tobytes()] = screened, r, kept, diagonal, (A, np.abs(A))
             else:
                 solver, from_c = self._sparse_qp(free, r, h)
                 self._qps[free.tobytes()] = solver, r, kept, diagonal, from_c
@@ -127,17 +129,17 @@ class GaussNewtonSolver:
             qp_solves,
         )
 
-    def _screened_step(self, qp: ScreenedQP, A_free: np.ndarray, r: Reduction, x, p, free, bounds):
+    def _screened_step(self, qp: ScreenedQP, A: tuple, r: Reduction, x, p, free, bounds):
         """(step or None, the solver's failure status, rows solved, QPs solved) of a dense QP over the rows that
         can matter (mpc/row_screen.py): the same optimum as over every row."""
         lba, uba = r.rows(self.problem.lb, self.problem.ub, x)
-        G = A_free
+        rows: DenseRows | KnotRows = DenseRows(A[0])
         if self.constraints is not None:  # h + C dz >= lower
-            value, lower, C = self.constraints.evaluate(x, p)
-            G = np.vstack([A_free, C[:, free]])
+            value, lower, J = self.constraints.jacobians(x, p)
+            rows = KnotRows(A[0], A[1], J, self.constraints.B[1:], free)
             lba, uba = np.concatenate([lba, lower - value]), np.concatenate([uba, np.full(value.size, np.inf)])
         h, g, lbx, ubx = bounds
-        out = qp.solve(h, g, lbx, ubx, G, lba, uba)
+        out = qp.solve(h, g, lbx, ubx, rows, lba, uba)
         return (out.z if out.success else None), out.status, out.rows, out.solves
 
     def _sparse_step(self, qp: Buffered, from_c, r: Reduction, x, p, bounds):

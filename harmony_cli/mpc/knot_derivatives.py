@@ -216,6 +216,14 @@ class KnotConstraints:
         C[:, : nd * npos] = np.einsum("kji,ka->kjai", J[1:], self.B[1:]).reshape(self.n_rows, -1)
         return h[1:].ravel().copy(), np.tile(np.minimum(h[0], 0.0), K - 1), C  # h: a view of the map's buffer
 
+    def jacobians(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(h at knots >= 1, lower bounds, the per-knot Jacobians J_k at knots >= 1: (K - 1, m, n_dof)); C without
+        forming it (mpc/knot_rows.py)."""
+        (K, npos), nd = self.B.shape, self.n_dof
+        out = self.map(i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p)
+        h, J = out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, nd)
+        return h[1:].ravel().copy(), np.tile(np.minimum(h[0], 0.0), K - 1), J[1:].copy()
+
     def entries(self, rows: np.ndarray, cols: np.ndarray) -> tuple[np.ndarray, ...]:
         """Where the Jacobian's entries C[rows, cols] (cols: position variables) come from, for `evaluate_entries`:
         their knot, constraint and joint in the per-knot Jacobians and their control point."""

@@ -12,6 +12,7 @@ screen only decides how fast that is found, never what is found."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import casadi as cs
 import numpy as np
@@ -21,6 +22,35 @@ from harmony_cli.mpc.codegen import Buffered
 SLOT_STEP = 16  # rows are padded to a multiple of this: one solver per size, few sizes
 REACH_SAFETY = 2.0  # a row is kept when a step twice the size of the last one could reach its bound
 FEASIBILITY = 1e-9  # a dropped row violated by more than this is added
+
+
+class Rows(Protocol):
+    """The rows G of a QP, as the screen uses them (a structured G need never be formed whole)."""
+
+    def reach(self, step: np.ndarray) -> np.ndarray:
+        """|G| @ step: how far a step of these sizes could move each row."""
+
+    def times(self, z: np.ndarray) -> np.ndarray:
+        """G @ z."""
+
+    def take(self, rows: np.ndarray) -> np.ndarray:
+        """G[rows] as a dense array."""
+
+
+class DenseRows:
+    """Rows given as a dense matrix."""
+
+    def __init__(self, G: np.ndarray):
+        self.G = G
+
+    def reach(self, step: np.ndarray) -> np.ndarray:
+        return np.abs(self.G) @ step
+
+    def times(self, z: np.ndarray) -> np.ndarray:
+        return self.G @ z
+
+    def take(self, rows: np.ndarray) -> np.ndarray:
+        return self.G[rows]
 
 
 @dataclass(frozen=True)
@@ -48,8 +78,8 @@ class ScreenedQP:
             self._solvers[slots] = Buffered(cs.conic(f"screened_qp_{slots}", self.qp, structure, self.options))
         return self._solvers[slots]
 
-    def solve(self, h, g, lbx, ubx, G: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> ScreenedSolution:
-        change = REACH_SAFETY * (np.abs(G) @ self.reach)
+    def solve(self, h, g, lbx, ubx, G: Rows, lo: np.ndarray, hi: np.ndarray) -> ScreenedSolution:
+        change = REACH_SAFETY * G.reach(self.reach)
         keep = self.active | (-lo < change) | (hi < change)  # at z = 0 the rows are 0: slack -lo and hi
         solves = 0
         while True:
@@ -58,7 +88,7 @@ class ScreenedQP:
             solves += 1
             if not stats["success"]:
                 return ScreenedSolution(z, False, str(stats.get("return_status", "?")), rows.size, solves)
-            Gz = G @ z
+            Gz = G.times(z)
             violated = ~keep & ((lo - Gz > FEASIBILITY) | (Gz - hi > FEASIBILITY))
             if not violated.any():
                 break
@@ -74,7 +104,7 @@ class ScreenedQP:
         solver = self._solver(slots)
         a = solver.args["a"].reshape(self.n, slots)  # column-major: a[:, i] is row i
         a[:] = 0.0
-        a[:, : rows.size] = G[rows].T
+        a[:, : rows.size] = G.take(rows).T
         solver.args["lba"][:] = -np.inf
         solver.args["uba"][:] = np.inf
         solver.args["lba"][: rows.size], solver.args["uba"][: rows.size] = lo[rows], hi[rows]
