@@ -1,10 +1,14 @@
 """One row of steps.csv per control step: timing, solver status and cost terms, references and measurements
-per hand, forces, joints and commands, and the simulator's ground truth."""
+per hand, forces, joints and commands, and the simulator's ground truth.
+
+Column names are made once per name (cached), not formatted every step; values are computed as they always were
+(the same numpy calls per hand), so the rows are what they were, only cheaper to build."""
 
 from __future__ import annotations
 
 import time
 from functools import cache
+from typing import NamedTuple
 
 import numpy as np
 
@@ -41,45 +45,100 @@ def step_record(
         "held_last_plan": command.held,
         "iterations": result.iterations,
     }
-    row |= targets.log | watched
-    row |= {f"cost_{k}": v for k, v in result.cost_terms.items()}
+    row |= targets.log
+    row |= watched
+    costs = result.cost_terms
+    row |= zip(_prefixed("cost_", tuple(costs)), costs.values())
     row["constraint_violation"] = result.max_violation
-    for h, hand in enumerate(robot.hand_names):
-        row |= _hand(hand, h, obs, targets, command, mpc.force_seen, truth)
+    _add_hands(row, robot.hand_names, obs, targets, command, mpc.force_seen, truth)
     row |= truth.push_N
     q, cmd_q, cmd_qd = _joint_columns(robot.joint_names)
     row |= zip(q, obs.q)
     row |= zip(cmd_q, command.q)
     row |= zip(cmd_qd, command.qd)
     for name, position in truth.obstacle_positions.items():
-        row |= {f"obstacle_{name}_{a}": v for a, v in zip("xyz", position)}
+        row |= zip(_obstacle_columns(name), position)
     for name, clearance in truth.clearance_robot_m.items():  # the true distances, measured by PyBullet
-        row[f"clearance_robot_{name}_m"] = clearance
+        robot_column, box_column = _clearance_columns(name)
+        row[robot_column] = clearance
         if name in truth.clearance_box_m:
-            row[f"clearance_box_{name}_m"] = truth.clearance_box_m[name]
+            row[box_column] = truth.clearance_box_m[name]
     return row
 
 
 @cache
+def _prefixed(prefix: str, names: tuple[str, ...]) -> tuple[str, ...]:
+    """prefix + name for each name (cost terms, joints), made once per set of names."""
+    return tuple(prefix + name for name in names)
+
+
+@cache
 def _joint_columns(joints: tuple[str, ...]) -> tuple[tuple[str, ...], ...]:
-    """The joint columns' names (q_, cmd_q_, cmd_qd_), made once per robot, not every step."""
-    return tuple(tuple(f"{prefix}{j}" for j in joints) for prefix in ("q_", "cmd_q_", "cmd_qd_"))
+    """The joint columns' names (q_, cmd_q_, cmd_qd_)."""
+    return tuple(_prefixed(prefix, joints) for prefix in ("q_", "cmd_q_", "cmd_qd_"))
 
 
-def _hand(
-    hand: str, h: int, obs: Observation, targets: HandTargets, command: Command, force_seen: np.ndarray, truth: Truth
-) -> dict:
-    """A hand's reference and measured position, errors, sensed forces and, with admittance, its force loop."""
-    row = {f"{hand}_ref_{a}": v for a, v in zip("xyz", targets.now[h])}
-    row |= {f"{hand}_meas_{a}": v for a, v in zip("xyz", obs.hand_positions[h])}
-    row[f"{hand}_error_m"] = float(np.linalg.norm(obs.hand_positions[h] - targets.now[h]))
-    row[f"{hand}_rot_error_deg"] = rotation_error_deg(obs.hand_rotations[h], targets.rotations[0, h])
-    row[f"{hand}_force_normal_N"] = float(obs.pad_forces[h])
-    if targets.force_ref is not None:
-        row[f"{hand}_force_ref_N"] = float(targets.force_ref[h, 0])
-        row[f"{hand}_offset_m"] = float(command.offsets[h])  # compliant offset commanded along the normal
-        row[f"{hand}_force_seen_N"] = float(force_seen[h])  # the low-passed force the admittance used
-    row |= {f"{hand}_force_{a}_N": v for a, v in zip("xyz", obs.wrenches[h, :3])}  # grasp frame
-    if truth.pad_contact_N is not None:
-        row[f"{hand}_contact_N"] = float(truth.pad_contact_N[h])  # PyBullet's pad-box contact normal force
-    return row
+@cache
+def _obstacle_columns(name: str) -> tuple[str, ...]:
+    return tuple(f"obstacle_{name}_{a}" for a in "xyz")
+
+
+@cache
+def _clearance_columns(name: str) -> tuple[str, str]:
+    return f"clearance_robot_{name}_m", f"clearance_box_{name}_m"
+
+
+class _HandColumns(NamedTuple):
+    ref: tuple[str, ...]
+    meas: tuple[str, ...]
+    error: str
+    rotation_error: str
+    normal: str
+    force_ref: str
+    offset: str
+    force_seen: str
+    force: tuple[str, ...]
+    contact: str
+
+
+@cache
+def _hand_columns(hand: str) -> _HandColumns:
+    return _HandColumns(
+        ref=tuple(f"{hand}_ref_{a}" for a in "xyz"),
+        meas=tuple(f"{hand}_meas_{a}" for a in "xyz"),
+        error=f"{hand}_error_m",
+        rotation_error=f"{hand}_rot_error_deg",
+        normal=f"{hand}_force_normal_N",
+        force_ref=f"{hand}_force_ref_N",
+        offset=f"{hand}_offset_m",
+        force_seen=f"{hand}_force_seen_N",
+        force=tuple(f"{hand}_force_{a}_N" for a in "xyz"),
+        contact=f"{hand}_contact_N",
+    )
+
+
+def _add_hands(
+    row: dict,
+    hands: tuple[str, ...],
+    obs: Observation,
+    targets: HandTargets,
+    command: Command,
+    force_seen: np.ndarray,
+    truth: Truth,
+) -> None:
+    """Per hand, its reference and measured position, errors, sensed forces and, with admittance, its force loop."""
+    pad_forces, errors = obs.pad_forces, obs.hand_positions - targets.now
+    for h, hand in enumerate(hands):
+        c = _hand_columns(hand)
+        row |= zip(c.ref, targets.now[h])
+        row |= zip(c.meas, obs.hand_positions[h])
+        row[c.error] = float(np.sqrt(errors[h].dot(errors[h])))  # np.linalg.norm's computation, without its checks
+        row[c.rotation_error] = rotation_error_deg(obs.hand_rotations[h], targets.rotations[0, h])
+        row[c.normal] = float(pad_forces[h])
+        if targets.force_ref is not None:
+            row[c.force_ref] = float(targets.force_ref[h, 0])
+            row[c.offset] = float(command.offsets[h])  # compliant offset commanded along the normal
+            row[c.force_seen] = float(force_seen[h])  # the low-passed force the admittance used
+        row |= zip(c.force, obs.wrenches[h, :3])  # grasp frame
+        if truth.pad_contact_N is not None:
+            row[c.contact] = float(truth.pad_contact_N[h])  # PyBullet's pad-box contact normal force

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -15,7 +16,7 @@ from harmony_cli.robot.observation import Observation
 from harmony_cli.sim import PYBULLET_BANNER
 from harmony_cli.sim.pushes import Pushes
 from harmony_cli.sim.world import World
-from harmony_cli.sim.wrench import WristSensors
+from harmony_cli.sim.wrench import WristSensors, rotation_matrices
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -88,46 +89,49 @@ class Simulation:
 
     def observe(self) -> Observation:
         """What the controllers see: joints, hand frames, wrist wrenches and the box's pose."""
-        states = self.client.getJointStates(self.body, self.joints)
-        links = self.client.getLinkStates(
-            self.body, self.hand_links, computeForwardKinematics=True, computeLinkVelocity=True
-        )
+        n, wrists = len(self.joints), self.wrists
+        positions, velocities, reactions, _ = zip(*self.client.getJointStates(self.body, self._observed_joints))
+        links = wrists.link_states(wrists.links)  # the tools' links, then the hands' (the sensors' grasp links)
+        hands = links[-len(self.hand_links) :]
+        rotations = rotation_matrices([link[5] for link in hands])
+        yaw_rates = np.array([link[7][2] for link in hands])
         box = self.world.box_pose() if self.world is not None and self.world.box is not None else None
         return Observation(
-            q=np.array([s[0] for s in states]),
-            qd=np.array([s[1] for s in states]),
-            hand_positions=np.array([link[4] for link in links]),
-            hand_rotations=np.array(
-                [np.reshape(self.client.getMatrixFromQuaternion(link[5]), (3, 3)) for link in links]
-            ),
-            hand_velocities=np.array([link[6] for link in links]),
-            heading_rate=float(np.mean([link[7][2] for link in links])),
-            wrenches=self.wrists.read(),
+            q=np.array(positions[:n]),
+            qd=np.array(velocities[:n]),
+            hand_positions=np.array([link[4] for link in hands]),
+            hand_rotations=rotations,
+            hand_velocities=np.array([link[6] for link in hands]),
+            heading_rate=float(np.add.reduce(yaw_rates) / yaw_rates.size),  # np.mean's sum and division, quicker
+            wrenches=wrists.wrenches(np.array(reactions[n:]), links, rotations),
             box_position=None if box is None else box[0],
             box_yaw=0.0 if box is None else box[1],
         )
 
+    @cached_property
+    def _observed_joints(self) -> list[int]:
+        """The robot's joints, then the wrist sensors' (for their reactions): one getJointStates call."""
+        return self.joints + self.wrists.sensors
+
     def truth(self) -> Truth:
         """Ground truth for the logs (never for the controllers)."""
         world = self.world
-        box = None if world is None else world.box
         centre, z_axis, touching, contact = None, None, False, None
-        if world is not None and box is not None:
-            centre, z_axis = world.box_state()
-            touching, contact = world.touching(box, self.body), self.pad_contact_forces()
         positions: dict[str, np.ndarray] = {}
         robot: dict[str, float] = {}
         carried: dict[str, float] = {}
         if world is not None:
+            if world.box is not None:
+                centre, z_axis = world.box_state()
+                contacts = self.client.getContactPoints(bodyA=world.box, bodyB=self.body)  # whether, and where
+                touching, contact = len(contacts) > 0, self._pad_forces(contacts)
+                carried = world.clearances(world.box)
             positions = {name: world.obstacle_position(name) for name in world.moving}
-            for name in world.obstacles:
-                robot[name] = world.clearance(self.body, name)
-                if box is not None:
-                    carried[name] = world.clearance(box, name)
+            robot = world.clearances(self.body)
         return Truth(
             box_position=centre,
             box_z_axis=z_axis,
-            box_touches_robot=bool(touching),
+            box_touches_robot=touching,
             pad_contact_N=contact,
             push_N=self.pushes.magnitudes(self.time),
             obstacle_positions=positions,
@@ -174,14 +178,23 @@ class Simulation:
     def pad_contact_forces(self) -> np.ndarray:
         """Per hand, the summed contact normal force between the box and the links below its wrist sensor [N]
         (PyBullet's contact solution of the last physics step; zeros without a box)."""
-        forces = np.zeros(len(self.hand_links))
         if self.world is None or self.world.box is None:
-            return forces
-        for point in self.client.getContactPoints(bodyA=self.world.box, bodyB=self.body):
-            for h, tool in enumerate(self.wrists.tools):
-                if point[4] in tool:
-                    forces[h] += point[9]
-        return forces
+            return np.zeros(len(self.hand_links))
+        return self._pad_forces(self.client.getContactPoints(bodyA=self.world.box, bodyB=self.body))
+
+    def _pad_forces(self, box_contacts: tuple) -> np.ndarray:
+        """`pad_contact_forces` from the box's contact points with the robot, summed in their order."""
+        forces = [0.0] * len(self.hand_links)
+        for point in box_contacts:
+            for h in self._hands_of_tool_link.get(point[4], ()):
+                forces[h] += point[9]
+        return np.array(forces)
+
+    @cached_property
+    def _hands_of_tool_link(self) -> dict[int, list[int]]:
+        """The hands whose wrist sensor a link is below (one, unless sensors nest)."""
+        tools = self.wrists.tools
+        return {link: [h for h, tool in enumerate(tools) if link in tool] for link in self.wrists.tool_links}
 
     @property
     def connected(self) -> bool:

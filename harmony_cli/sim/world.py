@@ -7,6 +7,7 @@ contact would be resolved by penetration recovery alone (the runs require cleara
 
 from __future__ import annotations
 
+from operator import itemgetter
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -21,6 +22,7 @@ if TYPE_CHECKING:
     from harmony_cli.scenario.world import WorldSpec
 
 FAR = 5.0  # [m] clearances beyond this are reported as FAR (PyBullet only searches this far)
+_distance = itemgetter(8)  # of a closest point: signed, negative inside
 
 
 def _quaternion(yaw_deg: float) -> list[float]:
@@ -33,9 +35,13 @@ class World:
 
     def __init__(self, client: BulletClient, spec: WorldSpec):
         self.client, self.spec = client, spec
+        # bound once: a BulletClient attribute is a new functools.partial on every access (these run every step)
+        self._closest_points, self._base_pose = client.getClosestPoints, client.getBasePositionAndOrientation
+        self._reset_base_pose = client.resetBasePositionAndOrientation
         self.tables = {t.name: self._table(t) for t in spec.tables}
         self.obstacles = {o.name: self._obstacle(o) for o in spec.obstacles}
         self.moving = {o.name: o for o in spec.obstacles if o.motion is not None}
+        self._orientations = {name: _quaternion(o.yaw_deg) for name, o in self.moving.items()}  # motions translate
         self.move_obstacles(0.0)
         self.box = None
         if spec.box is not None:
@@ -88,28 +94,26 @@ class World:
     def move_obstacles(self, t: float) -> None:
         """Every moving obstacle to where its motion says at time t."""
         for name, o in self.moving.items():
-            self.client.resetBasePositionAndOrientation(
-                self.obstacles[name], centre_at(o, t)[0].tolist(), _quaternion(o.yaw_deg)
-            )
+            self._reset_base_pose(self.obstacles[name], centre_at(o, t)[0].tolist(), self._orientations[name])
 
     def obstacle_position(self, name: str) -> np.ndarray:
         """An obstacle's centre as PyBullet has it."""
-        return np.array(self.client.getBasePositionAndOrientation(self.obstacles[name])[0])
+        return np.array(self._base_pose(self.obstacles[name])[0])
 
     def box_pose(self) -> tuple[np.ndarray, float]:
         """The box's centre and yaw."""
-        position, orientation = self.client.getBasePositionAndOrientation(self.box)
+        position, orientation = self._base_pose(self.box)
         return np.array(position), pybullet.getEulerFromQuaternion(orientation)[2]
 
     def box_state(self) -> tuple[np.ndarray, np.ndarray]:
         """Box centre and its z axis in the world (upright: z axis ~ (0, 0, 1))."""
-        position, orientation = self.client.getBasePositionAndOrientation(self.box)
-        return np.array(position), np.reshape(pybullet.getMatrixFromQuaternion(orientation), (3, 3))[:, 2]
-
-    def touching(self, body: int, other: int) -> bool:
-        return len(self.client.getContactPoints(bodyA=body, bodyB=other)) > 0
+        position, orientation = self._base_pose(self.box)
+        return np.array(position), np.array(pybullet.getMatrixFromQuaternion(orientation)[2::3])  # row-major 3x3
 
     def clearance(self, body: int, obstacle: str) -> float:
         """Smallest distance between any part of `body` and an obstacle (negative: penetration), up to FAR."""
-        points = self.client.getClosestPoints(body, self.obstacles[obstacle], FAR)
-        return min((p[8] for p in points), default=FAR)
+        return min(map(_distance, self._closest_points(body, self.obstacles[obstacle], FAR)), default=FAR)
+
+    def clearances(self, body: int) -> dict[str, float]:
+        """`clearance` to every obstacle, by name."""
+        return {name: self.clearance(body, name) for name in self.obstacles}
