@@ -113,9 +113,16 @@ def shift_matrix(n_ctrl: int, tau: float) -> np.ndarray:
         return S
     n = n_ctrl - 1
     powers, complements = (v[0] for v in _powers(np.array([float(tau)]), n))
-    k, j = np.tril_indices(n_ctrl)  # C(n-j, k-j) tau^(k-j) (1-tau)^(n-k): the same products as bernstein_basis
-    S[k, j] = (_COMB[n - j, k - j] * powers[k - j]) * complements[n - k]
+    k, j, binomials = _shift_terms(n_ctrl)  # C(n-j, k-j) tau^(k-j) (1-tau)^(n-k): bernstein_basis's products
+    S[k, j] = (binomials * powers[k - j]) * complements[n - k]
     return S
+
+
+@lru_cache(maxsize=16)
+def _shift_terms(n_ctrl: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """shift_matrix's index set-up (most of its time; a plan shifts every control step)."""
+    k, j = np.tril_indices(n_ctrl)
+    return k, j, _COMB[n_ctrl - 1 - j, k - j]
 
 
 def convex_hull_box(ctrl: Any) -> tuple[np.ndarray, np.ndarray]:
