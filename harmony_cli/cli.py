@@ -239,6 +239,9 @@ def paths(
     typer.echo(plot_paths_compared(out, loaded, title))
 
 
+EXPERIMENTS = ("pick_and_carry", "static_obstacles", "narrow_passage", "dynamic_obstacle")  # the paper's two-stage
+
+
 @app.command()
 def bench(
     scenario: Path = typer.Option(Path("scenarios/paper/table1_s_shape.yaml")),
@@ -247,20 +250,22 @@ def bench(
     steps: int = typer.Option(250, help="Control steps per configuration"),
     start: float = typer.Option(8.0, help="Reference time of the first step [s]"),
     out: Path | None = typer.Option(Path("results/bench/bench.json")),
-    loop: Path | None = typer.Option(
-        Path("scenarios/paper/pick_and_carry.yaml"),
-        help="Two-stage task scenario whose full loop is timed ('' to skip)",
+    loop: list[Path] = typer.Option(
+        [Path(f"scenarios/paper/{name}.yaml") for name in EXPERIMENTS],
+        help="Experiments timed closed loop, one after another (repeatable; '' to skip)",
     ),
 ):
-    """Whole-body MPC solve time: both transcriptions x K x solver modes, side by side, with ratios; then the
-    full loop (planner + whole-body MPC) of a task scenario, closed loop in PyBullet."""
-    from harmony_cli.experiment.bench import run_bench, run_loop_bench
+    """Whole-body MPC solve time: both transcriptions x K x solver modes, side by side, with ratios; then each
+    experiment closed loop in PyBullet: its loop and each part of a step (median to max), wall time, real-time
+    factor, beside the last bench's numbers from this machine."""
+    from harmony_cli.experiment.bench import run_bench
+    from harmony_cli.experiment.loop_bench import run_loop_bench
     from harmony_cli.mpc.registry import SolverUnavailable
 
     try:
         run_bench(scenario, list(knots), list(solver), steps, start, out)
-        if loop and str(loop):
-            run_loop_bench(loop, out.with_name("loop.json") if out else None)
+        if all(str(path) for path in loop):
+            run_loop_bench(list(loop), out.with_name("loop.json") if out else None)
     except (ScenarioError, SolverUnavailable) as exc:
         fail(str(exc))
 

@@ -1,0 +1,109 @@
+"""`harmony bench`'s closed-loop part: every experiment run closed loop in PyBullet, one after another in this
+process, timed from its steps.csv — the loop (observation to command) and each part of a step, with their tails —
+and the run's wall time and real-time factor, beside the last bench's numbers when this machine measured them."""
+
+from __future__ import annotations
+
+import json
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from rich.console import Console
+from rich.table import Table
+
+from harmony_cli.experiment.run_dir import machine_meta
+
+PARTS = {  # steps.csv's breakdown (loop.py), in the order a step runs them
+    "loop_ms": "loop (planner + whole-body MPC)",
+    "sense_ms": "sensing",
+    "planner_ms": "planner",
+    "wbmpc_ms": "whole-body MPC",
+    "previous_log_ms": "logging",
+    "previous_physics_ms": "physics",
+}
+QUANTILES = {"median": 50, "p95": 95, "p99": 99, "p99.9": 99.9}
+
+
+def tail_stats(values) -> dict[str, float]:
+    """Median, p95, p99, p99.9 and max of a series of times [ms]."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return {name: float("nan") for name in [*QUANTILES, "max"]}
+    return {name: float(np.percentile(v, q)) for name, q in QUANTILES.items()} | {"max": float(v.max())}
+
+
+def time_experiment(path: Path) -> dict:
+    """One experiment closed loop (no video, its plots as `harmony run` makes them): its timing report."""
+    import pandas as pd
+
+    from harmony_cli.experiment.run import run_scenario
+
+    with tempfile.TemporaryDirectory() as tmp:
+        start = time.perf_counter()
+        run_dir = run_scenario(path, [], Path(tmp) / "run", progress=False)
+        wall = time.perf_counter() - start
+        steps = pd.read_csv(run_dir / "steps.csv")
+        summary = json.loads((run_dir / "summary.json").read_text())
+    simulated = float(steps["t"].iloc[-1] - steps["t"].iloc[0]) + float(np.median(np.diff(steps["t"])))
+    return {
+        "scenario": str(path),
+        "name": summary["name"],
+        "steps": len(steps),
+        "wall_s": wall,
+        "real_time_factor": simulated / wall,
+        "success": summary.get("task", {}).get("success"),
+        "parts_ms": {label: tail_stats(steps[column]) for column, label in PARTS.items() if column in steps},
+    }
+
+
+def _previous(out: Path | None, meta: dict) -> dict[str, dict]:
+    """The last bench's experiments by name, if this machine (same CPU model) measured them."""
+    if out is None or not out.is_file():
+        return {}
+    try:
+        last = json.loads(out.read_text())
+    except (OSError, ValueError):
+        return {}
+    if last.get("meta", {}).get("cpu") != meta["cpu"]:
+        return {}
+    return {e["name"]: e | {"git_sha": last["meta"].get("git_sha")} for e in last.get("experiments", [])}
+
+
+def _row(label: str, stats: dict, before: dict | None) -> list[str]:
+    cells = [f"{stats[k]:.2f}" for k in [*QUANTILES, "max"]]
+    if before:
+        cells.append(f"{before['median']:.2f} / {before['p99']:.2f} / {before['max']:.2f}")
+    return [label, *cells]
+
+
+def run_loop_bench(paths: list[Path], out: Path | None = None, console: Console | None = None) -> dict:
+    """Each experiment closed loop, one at a time; prints a table per experiment and writes `out` (JSON)."""
+    console = console or Console(width=160)
+    meta = machine_meta(1)
+    previous = _previous(out, meta)
+    experiments = []
+    for path in paths:
+        console.print(f"[bold]{path}[/bold]: running closed loop ...")
+        report = time_experiment(path)
+        experiments.append(report)
+        before = previous.get(report["name"])
+        table = Table(
+            title=f"{report['name']}: {report['steps']} steps, wall {report['wall_s']:.1f} s, "
+            f"{report['real_time_factor']:.2f}x real time, success {report['success']} (ms)"
+        )
+        for column in ["", *QUANTILES, "max"] + (
+            [f"last bench ({before['git_sha'][:7]}) p50/p99/max"] if before else []
+        ):
+            table.add_column(column, justify="right")
+        for label, stats in report["parts_ms"].items():
+            table.add_row(*_row(label, stats, before["parts_ms"].get(label) if before else None))
+        console.print(table)
+    console.print(f"{meta['cpu']}, {meta['cores']} cores, git {meta['git_sha']}")
+    result = {"meta": meta, "experiments": experiments}
+    if out:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(result, indent=2))
+    return result

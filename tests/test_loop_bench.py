@@ -1,0 +1,27 @@
+"""`harmony bench`'s closed-loop part times a real run from its steps and compares with this machine's last bench."""
+
+import io
+import json
+
+from conftest import SMOKE
+from rich.console import Console
+
+from harmony_cli.experiment.loop_bench import run_loop_bench
+
+
+def test_loop_bench_reports_tails_and_real_time_factor_and_shows_the_last_bench_beside(tmp_path):
+    """Every part of a step gets median <= p99 <= max; the real-time factor is simulated over wall time; a second
+    bench on this machine prints the first one's numbers beside its own."""
+    out = tmp_path / "loop.json"
+    first = run_loop_bench([SMOKE], out, Console(file=io.StringIO()))["experiments"][0]
+    assert {"loop (planner + whole-body MPC)", "sensing", "whole-body MPC", "logging", "physics"} <= set(
+        first["parts_ms"]
+    )
+    for stats in first["parts_ms"].values():
+        assert 0 < stats["median"] <= stats["p99"] <= stats["p99.9"] <= stats["max"]
+    simulated = first["steps"] * 0.02  # the smoke scenario's control period
+    assert abs(first["real_time_factor"] * first["wall_s"] - simulated) < 1e-6 * simulated
+    assert json.loads(out.read_text())["experiments"][0]["name"] == first["name"]
+    printed = io.StringIO()
+    run_loop_bench([SMOKE], out, Console(file=printed, width=200))
+    assert "last bench" in printed.getvalue()
