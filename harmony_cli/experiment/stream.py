@@ -1,6 +1,7 @@
 """steps.jsonl: the per-step log streamed to disk during a run, one JSON object per line (rows may gain keys over
-a run, e.g. a planner's, so not CSV). Rows are buffered and written when a second of wall time has passed since
-the last write, so a run killed hard keeps all but its last second; steps.csv is still written at the end."""
+a run, e.g. a planner's, so not CSV). Rows are buffered and written when 0.1 s of wall time has passed since the
+last write, so a run killed hard keeps all but its last 0.1 s; steps.csv is still written at the end. (Once a
+second, each write serialised ~50 rows: a 20-30 ms pause in the loop, its p99.9.)"""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 STREAM = "steps.jsonl"
-EVERY_S = 1.0  # wall time between writes: what a hard kill may lose
+EVERY_S = 0.1  # wall time between writes: what a hard kill may lose, and how many rows one write serialises
 
 
 def _plain(value: object) -> object:
@@ -24,7 +25,7 @@ def _plain(value: object) -> object:
 
 
 class StepStream:
-    """Appends rows to `path`; serialising happens at write time, once a second, not in the control step."""
+    """Appends rows to `path`; serialising happens at write time, every EVERY_S, not in every control step."""
 
     def __init__(self, path: Path, every_s: float = EVERY_S):
         self.path = path
