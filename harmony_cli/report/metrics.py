@@ -7,6 +7,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from harmony_cli.report.task_failure import fell_at, task_failure
+
 if TYPE_CHECKING:
     from harmony_cli.scenario import PushSpec, Scenario
 
@@ -87,7 +89,8 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
         out["success"] = bool(clear and solved and all(p["completed_s"] is not None for p in phases))
     elif "box_x" in steps:
         final = steps[["box_x", "box_y", "box_z"]].iloc[-1].to_numpy()
-        dropped = bool(steps["dropped"].any())
+        fell = fell_at(steps, [t.height for t in scenario.world.tables], box.size[2])
+        dropped = bool(steps["dropped"].any()) or fell is not None  # out of the hands, or off the tables
         error = float(np.linalg.norm(final - np.asarray(box.goal))) if box.goal else None
         upright = float(steps["box_tilt_deg"].iloc[-1]) < UPRIGHT_DEG
         out |= {
@@ -95,8 +98,11 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
             "box_goal_error_m": error,
             "box_upright": upright,
             "box_dropped": dropped,
+            "box_fell_s": fell,
             "success": bool(error is not None and error <= GOAL_TOLERANCE and upright and not dropped and clear),
         }
+    if "success" in out:
+        out["failure"] = task_failure(out, steps)
     return out
 
 

@@ -28,6 +28,8 @@ def run_lines(run_dir: Path, summary: dict) -> list[str]:
             f", loop median {loop['median']:.2f} / "
             f"p95 {loop['p95']:.2f} / max {loop['max']:.2f} ms, planner failures {task['planner_failures']}"
         )
+        if task.get("failure"):
+            lines.append(f"task failed ({task['failure']['category']}): {task['failure']['reason']}")
         for name, c in task.get("min_clearance_moving_m", {}).items():
             clearances = ", ".join(f"{who} {v:.3f} m" for who, v in c.items())
             lines.append(f"moving obstacle {name}: min clearance {clearances}")

@@ -10,20 +10,11 @@ from typing import Any
 
 import pandas as pd
 
+from harmony_cli.report.task_failure import failure_category
 from harmony_cli.study.plan import PlannedRun
 
 TABLE = "study.parquet"
 NOT_RUN = ("interrupted", "killed", "running", "not run")  # statuses that are no result (the run did not end)
-
-# a completed run's task failure, the first that applies (summary.json `task` fields)
-TASK_FAILURES = (
-    ("dropped", lambda t: t.get("box_dropped") is True),
-    ("collision", lambda t: t.get("clear_of_obstacles") is False),
-    ("box tipped", lambda t: t.get("box_upright") is False),
-    ("phase timeout", lambda t: any(p.get("completed_s") is None for p in t.get("phases", []))),
-    ("box off goal", lambda t: t.get("box_goal_error_m") is not None and t.get("success") is False),
-    ("solver failures", lambda t: t.get("all_solves_succeeded") is False),
-)
 
 
 def outcome(summary: dict) -> str:
@@ -38,7 +29,7 @@ def outcome(summary: dict) -> str:
         return "success" if summary.get("failed_solves") == 0 else "solver failures"
     if task.get("success"):
         return "success"
-    return next((name for name, applies in TASK_FAILURES if applies(task)), "unsuccessful")
+    return (task.get("failure") or {}).get("category") or failure_category(task)  # older runs: no failure
 
 
 def flatten(value: Any, prefix: str) -> dict[str, Any]:
@@ -73,7 +64,9 @@ def run_row(run: PlannedRun, run_dir: Path) -> dict[str, Any]:
         "failure": summary.get("failure"),
         "outcome": result,
         "success": result == "success" if summary.get("status") not in NOT_RUN else None,
-        "reason": summary.get("reason") or summary.get("error"),
+        "reason": summary.get("reason")
+        or summary.get("error")
+        or ((summary.get("task") or {}).get("failure") or {}).get("reason"),
         "resamples": len(run.sample.rejected),
     }
     row |= {f"grid.{k}": v for k, v in run.point.items()}

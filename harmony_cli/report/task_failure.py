@@ -1,0 +1,97 @@
+"""Why a task did not succeed: one category and a reason that says what, where and when, from a run's per-step
+table and its task outcome (summary.json `task`), so nobody has to dig it out of steps.csv.
+
+Categories, the first that applies: dropped (the box left the hands while held, or fell off the tables while not
+held), collision, box tipped, phase timeout, box off goal, solver failures."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import pandas as pd
+
+FELL_BELOW = 0.05  # [m] a box whose centre sinks this far below resting on the lowest table top has fallen off
+
+
+def fell_at(steps: pd.DataFrame, table_tops: list[float], box_height: float) -> float | None:
+    """When the box fell off the tables to below the lowest one (None: it never did, or it did not start on a
+    table). Held or not: a box on the floor is not where a task puts it."""
+    if not table_tops or "box_z" not in steps:
+        return None
+    below = steps["box_z"].to_numpy() < min(table_tops) + box_height / 2 - FELL_BELOW
+    if not below.any() or below[0]:
+        return None
+    return float(steps["t"].to_numpy()[np.argmax(below)])
+
+
+def _when(steps: pd.DataFrame, rows: pd.Series) -> str:
+    first = steps[rows].iloc[0]
+    phase = f" ({first['phase']})" if "phase" in steps else ""
+    return f"t = {first['t']:.2f} s{phase}"
+
+
+def _dropped(task: dict, steps: pd.DataFrame) -> str:
+    if task.get("box_fell_s") is not None:
+        fell = steps["t"] == task["box_fell_s"]
+        held = " while held" if "holding" in steps and bool(steps["holding"][fell].any()) else " while not held"
+        final = task["box_final"][2]
+        return f"the box fell off the tables{held} at {_when(steps, fell)}; it ended at z = {final:.2f} m"
+    return f"the box left the hands at {_when(steps, steps['dropped'].astype(bool))}"
+
+
+def _collision(task: dict, steps: pd.DataFrame) -> str:
+    name, who, value = min(
+        ((name, who, v) for name, c in task["min_clearance_m"].items() for who, v in c.items()), key=lambda n: n[2]
+    )
+    column = f"clearance_{who}_{name}_m"
+    return f"the {who} touched obstacle {name} at {_when(steps, steps[column] <= 0)} (clearance {value:.3f} m)"
+
+
+def _tipped(task: dict, steps: pd.DataFrame) -> str:
+    return f"the box ended tilted {steps['box_tilt_deg'].iloc[-1]:.0f} deg"
+
+
+def _timeout(task: dict, steps: pd.DataFrame) -> str:
+    phase = next(p for p in task["phases"] if p.get("completed_s") is None)
+    if phase.get("start_s") is None:
+        return f"phase {phase['name']} never started (the run ended first)"
+    away = f"the hands {phase['final_goal_error_m']:.2f} m from its goal"
+    if "phase" in steps and steps["phase"].iloc[-1] == phase["name"]:
+        return f"the run ended during phase {phase['name']} (t = {steps['t'].iloc[-1]:.2f} s), {away}"
+    return f"phase {phase['name']} never reached its goal: {away} at its end"
+
+
+def _off_goal(task: dict, steps: pd.DataFrame) -> str:
+    return f"the box ended {100 * task['box_goal_error_m']:.1f} cm from its goal"
+
+
+def _solves(task: dict, steps: pd.DataFrame) -> str:
+    whole_body = int((~steps["success"].astype(bool)).sum())
+    return f"{task.get('planner_failures', 0)} planner and {whole_body} whole-body MPC solves failed"
+
+
+# (category, applies to the task outcome, reason); the first that applies is the run's
+FAILURES: tuple[tuple[str, Callable[[dict], bool], Callable[[dict, pd.DataFrame], str]], ...] = (
+    ("dropped", lambda t: t.get("box_dropped") is True, _dropped),
+    ("collision", lambda t: t.get("clear_of_obstacles") is False, _collision),
+    ("box tipped", lambda t: t.get("box_upright") is False, _tipped),
+    ("phase timeout", lambda t: any(p.get("completed_s") is None for p in t.get("phases", [])), _timeout),
+    ("box off goal", lambda t: t.get("box_goal_error_m") is not None, _off_goal),
+    ("solver failures", lambda t: t.get("all_solves_succeeded") is False, _solves),
+)
+
+
+def failure_category(task: dict) -> str:
+    """The category of an unsuccessful task outcome (also of a summary.json written before reasons existed)."""
+    return next((name for name, applies, _ in FAILURES if applies(task)), "unsuccessful")
+
+
+def task_failure(task: dict, steps: pd.DataFrame) -> dict | None:
+    """{category, reason} of an unsuccessful task (None: it succeeded)."""
+    if task.get("success"):
+        return None
+    for name, applies, reason in FAILURES:
+        if applies(task):
+            return {"category": name, "reason": reason(task, steps)}
+    return {"category": "unsuccessful", "reason": "no criterion of success failed that harmony knows of"}

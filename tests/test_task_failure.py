@@ -1,0 +1,72 @@
+"""Every unsuccessful task gets one category and a reason saying what, where and when (summary.json `task.failure`)."""
+
+import pandas as pd
+
+from harmony_cli.report.task_failure import fell_at, task_failure
+
+TABLES = [1.015, 0.9]  # table top heights [m]
+BOX = 0.3  # box height [m]
+
+
+def _steps(box_z, holding, phase="carry", clearance=0.5):
+    n = len(box_z)
+    return pd.DataFrame(
+        {
+            "t": [0.02 * i for i in range(n)],
+            "phase": [phase] * n,
+            "holding": holding,
+            "box_z": box_z,
+            "dropped": [False] * n,
+            "success": [True] * n,
+            "clearance_robot_cylinder_m": [clearance] * n,
+        }
+    )
+
+
+def test_a_box_that_falls_off_the_tables_is_found_when_it_sinks_below_the_lowest_top():
+    """On a table at 1.015 m, then on the floor: fell at the first step below the lowest top (0.9 m) + half its
+    height - 5 cm; a box that starts on the floor, or only sinks onto the lower table, never fell."""
+    steps = _steps([1.165, 1.165, 1.05, 0.6, 0.15, 0.15], [False] * 6)
+    assert fell_at(steps, TABLES, BOX) == steps["t"][3]
+    assert fell_at(_steps([0.15] * 4, [False] * 4), TABLES, BOX) is None
+    assert fell_at(_steps([1.165, 1.1, 1.05, 1.05], [False] * 4), TABLES, BOX) is None
+
+
+def test_a_box_dropped_while_not_held_is_reported_as_dropped_with_when_and_where():
+    steps = _steps([1.165, 1.165, 0.6, 0.15], [False] * 4, phase="release")
+    task = {"success": False, "box_dropped": True, "box_fell_s": steps["t"][2], "box_final": [6.1, 3.3, 0.15]}
+    failure = task_failure(task, steps)
+    assert failure["category"] == "dropped"
+    assert "while not held" in failure["reason"] and "t = 0.04 s (release)" in failure["reason"]
+    assert "z = 0.15 m" in failure["reason"]
+
+
+def test_the_first_failure_that_applies_is_the_category_and_a_collision_names_its_obstacle():
+    """A box off its goal after touching an obstacle is a collision (the earlier cause), named with its time."""
+    steps = _steps([1.165] * 3, [True] * 3, clearance=-0.01)
+    task = {
+        "success": False,
+        "box_dropped": False,
+        "clear_of_obstacles": False,
+        "min_clearance_m": {"cylinder": {"robot": -0.01}},
+        "box_upright": True,
+        "box_goal_error_m": 0.8,
+    }
+    failure = task_failure(task, steps)
+    assert failure["category"] == "collision"
+    assert "robot touched obstacle cylinder at t = 0.00 s (carry)" in failure["reason"]
+    assert task_failure(task | {"success": True}, steps) is None
+
+
+def test_a_phase_that_never_reached_its_goal_says_how_far_the_hands_were():
+    steps = _steps([1.165] * 3, [True] * 3)
+    phases = [{"name": "lift", "start_s": 0.0, "completed_s": 1.0, "final_goal_error_m": 0.01}]
+    phases.append({"name": "carry", "start_s": 1.0, "completed_s": None, "final_goal_error_m": 1.234})
+    task = {"success": False, "box_dropped": False, "clear_of_obstacles": True, "box_upright": True, "phases": phases}
+    assert task_failure(task, steps) == {
+        "category": "phase timeout",
+        "reason": "the run ended during phase carry (t = 0.04 s), the hands 1.23 m from its goal",
+    }
+    steps["phase"] = ["carry", "carry", "lower"]
+    reason = task_failure(task, steps)["reason"]
+    assert reason == "phase carry never reached its goal: the hands 1.23 m from its goal at its end"
