@@ -38,7 +38,7 @@ def test_a_box_dropped_while_not_held_is_reported_as_dropped_with_when_and_where
     failure = task_failure(task, steps)
     assert failure["category"] == "dropped"
     assert "while not held" in failure["reason"] and "t = 0.04 s (release)" in failure["reason"]
-    assert "z = 0.15 m" in failure["reason"]
+    assert failure["reason"].endswith("to z = 0.15 m") and "left the hands" not in failure["reason"]
 
 
 def test_the_first_failure_that_applies_is_the_category_and_a_collision_names_its_obstacle():
@@ -70,3 +70,16 @@ def test_a_phase_that_never_reached_its_goal_says_how_far_the_hands_were():
     steps["phase"] = ["carry", "carry", "lower"]
     reason = task_failure(task, steps)["reason"]
     assert reason == "phase carry never reached its goal: the hands 1.23 m from its goal at its end"
+
+
+def test_a_box_task_that_missed_a_phase_goal_and_its_box_goal_is_reported_off_goal_and_a_held_drop_first():
+    """A box task's success is the box (dropped, clear, upright, at its goal): a phase that fell short of its
+    goal is not the reason when the box is off goal; a box that left the hands and then fell says both."""
+    steps = _steps([1.165, 1.165, 0.6, 0.15], [True] * 4)
+    phases = [{"name": "approach", "start_s": 0.0, "completed_s": None, "final_goal_error_m": 0.06}]
+    task = {"success": False, "clear_of_obstacles": True, "box_upright": True, "phases": phases}
+    assert task_failure(task | {"box_dropped": False, "box_goal_error_m": 0.5}, steps)["category"] == "box off goal"
+    steps.loc[1:, "dropped"] = True
+    fell = task | {"box_dropped": True, "box_fell_s": steps["t"][2], "box_final": [3.0, 1.0, 0.15]}
+    reason = task_failure(fell, steps)["reason"]
+    assert reason.startswith("the box left the hands at t = 0.02 s (carry); it fell off the tables while held")

@@ -1,8 +1,9 @@
 """Why a task did not succeed: one category and a reason that says what, where and when, from a run's per-step
 table and its task outcome (summary.json `task`), so nobody has to dig it out of steps.csv.
 
-Categories, the first that applies: dropped (the box left the hands while held, or fell off the tables while not
-held), collision, box tipped, phase timeout, box off goal, solver failures."""
+Categories, the first that applies: dropped (the box left the hands while held, or fell off the tables), collision,
+box tipped, box off goal, then (a task without a box: every phase must reach its goal) phase timeout, and solver
+failures."""
 
 from __future__ import annotations
 
@@ -32,12 +33,17 @@ def _when(steps: pd.DataFrame, rows: pd.Series) -> str:
 
 
 def _dropped(task: dict, steps: pd.DataFrame) -> str:
+    parts = []
+    if steps["dropped"].astype(bool).any():  # held, then no contact with the robot
+        parts.append(f"the box left the hands at {_when(steps, steps['dropped'].astype(bool))}")
     if task.get("box_fell_s") is not None:
         fell = steps["t"] == task["box_fell_s"]
-        held = " while held" if "holding" in steps and bool(steps["holding"][fell].any()) else " while not held"
-        final = task["box_final"][2]
-        return f"the box fell off the tables{held} at {_when(steps, fell)}; it ended at z = {final:.2f} m"
-    return f"the box left the hands at {_when(steps, steps['dropped'].astype(bool))}"
+        held = "while held" if "holding" in steps and bool(steps["holding"][fell].any()) else "while not held"
+        subject = "it" if parts else "the box"
+        parts.append(
+            f"{subject} fell off the tables {held} at {_when(steps, fell)}, to z = {task['box_final'][2]:.2f} m"
+        )
+    return "; ".join(parts)
 
 
 def _collision(task: dict, steps: pd.DataFrame) -> str:
@@ -76,8 +82,8 @@ FAILURES: tuple[tuple[str, Callable[[dict], bool], Callable[[dict, pd.DataFrame]
     ("dropped", lambda t: t.get("box_dropped") is True, _dropped),
     ("collision", lambda t: t.get("clear_of_obstacles") is False, _collision),
     ("box tipped", lambda t: t.get("box_upright") is False, _tipped),
+    ("box off goal", lambda t: t.get("box_goal_error_m") is not None, _off_goal),  # a box task's last criterion
     ("phase timeout", lambda t: any(p.get("completed_s") is None for p in t.get("phases", [])), _timeout),
-    ("box off goal", lambda t: t.get("box_goal_error_m") is not None, _off_goal),
     ("solver failures", lambda t: t.get("all_solves_succeeded") is False, _solves),
 )
 
