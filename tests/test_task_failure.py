@@ -83,3 +83,6 @@ def test_a_box_task_that_missed_a_phase_goal_and_its_box_goal_is_reported_off_go
     fell = task | {"box_dropped": True, "box_fell_s": steps["t"][2], "box_final": [3.0, 1.0, 0.15]}
     reason = task_failure(fell, steps)["reason"]
     assert reason.startswith("the box left the hands at t = 0.02 s (carry); it fell off the tables while held")
+    # flagged as dropped only after the fall (contact lost for DROP_AFTER): the fall alone
+    late = fell | {"box_fell_s": steps["t"][1]}
+    assert task_failure(late, steps)["reason"].startswith("the box fell off the tables while held at t = 0.02 s")

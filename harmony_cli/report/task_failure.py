@@ -33,11 +33,15 @@ def _when(steps: pd.DataFrame, rows: pd.Series) -> str:
 
 
 def _dropped(task: dict, steps: pd.DataFrame) -> str:
+    """The drop (a held box out of contact for a moment) and the fall off the tables, in the order they came: a
+    fall first (the drop is flagged only after the contact has been lost for a while) says the fall alone."""
+    dropped = steps["dropped"].astype(bool)
     parts = []
-    if steps["dropped"].astype(bool).any():  # held, then no contact with the robot
-        parts.append(f"the box left the hands at {_when(steps, steps['dropped'].astype(bool))}")
-    if task.get("box_fell_s") is not None:
-        fell = steps["t"] == task["box_fell_s"]
+    fell_s = task.get("box_fell_s")
+    if dropped.any() and (fell_s is None or steps["t"][dropped].iloc[0] < fell_s):
+        parts.append(f"the box left the hands at {_when(steps, dropped)}")
+    if fell_s is not None:
+        fell = steps["t"] == fell_s
         held = "while held" if "holding" in steps and bool(steps["holding"][fell].any()) else "while not held"
         subject = "it" if parts else "the box"
         parts.append(
