@@ -69,7 +69,7 @@ class ScreenedQP:
     def __init__(self, qp: str, options: dict, h: cs.Sparsity, m: int):
         self.qp, self.options, self.h, self.n, self.m = qp, options, h, h.size1(), m
         self._solvers: dict[int, Buffered] = {}
-        self.active = np.ones(m, dtype=bool)  # the first solve keeps every row
+        self.active = np.zeros(m, dtype=bool)  # rows active last time (none yet: the check adds what is needed)
         self.reach = np.zeros(self.n)  # |last step| per variable
 
     def _solver(self, slots: int) -> Buffered:
