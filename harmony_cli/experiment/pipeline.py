@@ -18,7 +18,7 @@ from harmony_cli.experiment.faults import HeldPlans, Writes, failed, fault_of
 from harmony_cli.experiment.health import Health, check_start
 from harmony_cli.experiment.interrupts import RunInterrupted, interrupted_summary, signals_end_the_run
 from harmony_cli.experiment.loop import Watch, run_loop
-from harmony_cli.experiment.results import finish_run
+from harmony_cli.experiment.results import RunRecord, finish_run
 from harmony_cli.experiment.run_dir import machine_meta
 from harmony_cli.experiment.stream import STREAM, StepStream
 from harmony_cli.experiment.task_watch import TaskWatch
@@ -222,7 +222,8 @@ def execute(
             guard.hold()  # a second signal must not cut the results short
             if built is not None:
                 built.sim.close()
-            finish_run(out, scenario, scenario_dir, rows, summary, meta, twin, (log, stream, recorder), writes, plots)
+            run = RunRecord(out, scenario, scenario_dir, rows, summary, meta, twin)
+            finish_run(run, (log, stream, recorder), writes, plots)
     if writes.reason is not None:  # the run completed, its results could not all be written
         raise RunFailed(out, writes.reason)
     return out

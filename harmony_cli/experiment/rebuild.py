@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from harmony_cli.experiment.results import write_results
+from harmony_cli.experiment.results import RunRecord, write_results
 from harmony_cli.experiment.stream import STREAM, read_stream
 from harmony_cli.report.plots import plot_run_dir
 from harmony_cli.scenario import load_scenario
@@ -33,7 +33,7 @@ def rebuild_run_dir(run_dir: Path) -> dict:
     twin_csv = run_dir / "push_free" / "steps.csv"  # a push-free twin runs first and is complete if the run started
     twin = pd.read_csv(twin_csv) if twin_csv.is_file() else None
     meta = _json(run_dir / "meta.json") or {}  # written after the build, so a killed run has it
-    steps = write_results(run_dir, scenario, run_dir, rows, summary, meta, twin)
+    steps = write_results(RunRecord(run_dir, scenario, run_dir, rows, summary, meta, twin))
     if len(steps):
         plot_run_dir(run_dir, steps, scenario, summary)
     with (run_dir / "run.log").open("a") as log:

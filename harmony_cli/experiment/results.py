@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
 
@@ -27,16 +28,21 @@ def _now(what: str, write: Callable[[], object]) -> object:
     return write()
 
 
-def write_results(
-    out: Path,
-    scenario: Scenario,
-    scenario_dir: Path,
-    rows: list[dict],
-    summary: dict,
-    meta: dict,
-    twin: pd.DataFrame | None,
-    attempt: Attempt = _now,
-) -> pd.DataFrame:
+@dataclass
+class RunRecord:
+    """What a run's results are written from: its directory, scenario (and the directory its paths are relative
+    to), the steps so far, the summary and meta.json being built, and the push-free twin's steps if it has one."""
+
+    out: Path
+    scenario: Scenario
+    scenario_dir: Path
+    rows: list[dict]
+    summary: dict
+    meta: dict
+    twin: pd.DataFrame | None = None
+
+
+def write_results(run: RunRecord, attempt: Attempt = _now) -> pd.DataFrame:
     """steps.csv (with push displacements from the twin), the summary's metrics, summary.json and meta.json, each
     written through `attempt` (at a run's end: one that fails does not stop the others)."""
     import pandas as pd
@@ -44,13 +50,14 @@ def write_results(
     from harmony_cli.report.metrics import displacement_from_twin
     from harmony_cli.report.summary import summarise_run
 
-    steps = pd.DataFrame(rows)
+    out, scenario, summary, twin = run.out, run.scenario, run.summary, run.twin
+    steps = pd.DataFrame(run.rows)
     hands = list(scenario.robot.end_effectors)
     if len(steps) and twin is not None:
         steps = displacement_from_twin(steps, twin, hands)
     attempt("steps.csv", lambda: steps.to_csv(out / "steps.csv", index=False))
     if len(steps):
-        urdf = robot_of(scenario, scenario_dir).urdf
+        urdf = robot_of(scenario, run.scenario_dir).urdf
         pushed = {
             p.name: hand_below(p.link, urdf, scenario.robot.end_effectors)
             if p.body == "robot" and p.link is not None
@@ -58,36 +65,28 @@ def write_results(
             for p in scenario.pushes
         }
         summary |= summarise_run(steps, scenario, hands, pushed)
-    attempt("meta.json", lambda: write_whole(out / "meta.json", json.dumps(meta, indent=2)))
+    attempt("meta.json", lambda: write_whole(out / "meta.json", json.dumps(run.meta, indent=2)))
     attempt("summary.json", lambda: write_whole(out / "summary.json", json.dumps(summary, indent=2)))
     return steps
 
 
 def finish_run(
-    out: Path,
-    scenario: Scenario,
-    scenario_dir: Path,
-    rows: list[dict],
-    summary: dict,
-    meta: dict,
-    twin: pd.DataFrame | None,
-    opened: tuple[IO[str], StepStream, VideoRecorder | None],
-    writes: Writes,
-    plots: str = "all",
+    run: RunRecord, opened: tuple[IO[str], StepStream, VideoRecorder | None], writes: Writes, plots: str = "all"
 ) -> None:
     """Every result of a run that can be written (a run that fails part-way keeps its video up to there); the
     plots as `plots` asks (all | failed | none)."""
     log, stream, recorder = opened
+    out, summary = run.out, run.summary
     writes(STREAM, stream.close)
     if recorder and (video := writes("video", recorder.close)) is not None:
         summary["video"] = str(video)
-    steps = write_results(out, scenario, scenario_dir, rows, summary, meta, twin, writes)
+    steps = write_results(run, writes)
     writes("run.log", lambda: log.write(f"status: {summary['status']}\n"))
     writes("run.log", log.close)
     if len(steps) and (plots == "all" or plots == "failed" and not succeeded(summary)):
         from harmony_cli.report.plots import plot_run_dir  # matplotlib: ~1 s to import
 
-        writes("plots", lambda: plot_run_dir(out, steps, scenario, summary))
+        writes("plots", lambda: plot_run_dir(out, steps, run.scenario, summary))
     if writes.reason is not None:  # a write failed after summary.json was: it says so now
         writes("summary.json", lambda: write_whole(out / "summary.json", json.dumps(summary, indent=2)))
 
