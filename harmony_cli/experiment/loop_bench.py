@@ -14,15 +14,9 @@ from rich.console import Console
 from rich.table import Table
 
 from harmony_cli.experiment.run_dir import machine_meta
+from harmony_cli.report.timing_plots import PARTS as STEP_PARTS
 
-PARTS = {  # steps.csv's breakdown (loop.py), in the order a step runs them
-    "loop_ms": "loop (planner + whole-body MPC)",
-    "sense_ms": "sensing",
-    "planner_ms": "planner",
-    "wbmpc_ms": "whole-body MPC",
-    "previous_log_ms": "logging",
-    "previous_physics_ms": "physics",
-}
+PARTS = {"loop_ms": "loop (planner + whole-body MPC)"} | STEP_PARTS  # the loop, then steps.csv's breakdown
 QUANTILES = {"median": 50, "p95": 95, "p99": 99, "p99.9": 99.9}
 
 

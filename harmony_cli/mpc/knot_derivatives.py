@@ -201,28 +201,37 @@ class KnotConstraints:
         h0 = np.array(self.function(q0, p[: self.n_ref])).ravel()
         return np.tile(np.minimum(h0, 0.0), K - 1)
 
+    def _at_knots(self, x: np.ndarray) -> np.ndarray:
+        """q at every knot (n_dof x K), the maps' first input."""
+        nd, npos = self.n_dof, self.B.shape[1]
+        return x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T
+
+    def _split(self, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(h at knots >= 1, their lower bounds min(0, h(q_0))) from h at every knot (K x m, a map's buffer)."""
+        return h[1:].ravel().copy(), np.tile(np.minimum(h[0], 0.0), h.shape[0] - 1)
+
+    def _rows_and_jacobians(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """h (K x m) and the per-knot Jacobians J (K x m x n_dof) at every knot: views of the map's buffers."""
+        out = self.map(i0=self._at_knots(x), i1=p)
+        K = self.B.shape[0]
+        return out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, self.n_dof)
+
     def margins(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(h at knots >= 1, lower bounds), without the Jacobian's assembly."""
-        (K, npos), nd = self.B.shape, self.n_dof
-        h = self.value_map(i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p)["o0"].reshape(K, self.m)
-        return h[1:].ravel().copy(), np.tile(np.minimum(h[0], 0.0), K - 1)
+        """(h at knots >= 1, lower bounds), without the Jacobian (its own map: half the time)."""
+        return self._split(self.value_map(i0=self._at_knots(x), i1=p)["o0"].reshape(self.B.shape[0], self.m))
 
     def evaluate(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(h at knots >= 1, lower bounds, C: n_rows x n_vars dense)."""
-        (K, npos), nd = self.B.shape, self.n_dof
-        out = self.map(i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p)
-        h, J = out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, nd)
+        h, J = self._rows_and_jacobians(x, p)
         C = np.zeros(self.pattern.shape)
-        C[:, : nd * npos] = np.einsum("kji,ka->kjai", J[1:], self.B[1:]).reshape(self.n_rows, -1)
-        return h[1:].ravel().copy(), np.tile(np.minimum(h[0], 0.0), K - 1), C  # h: a view of the map's buffer
+        C[:, : J.shape[2] * self.B.shape[1]] = np.einsum("kji,ka->kjai", J[1:], self.B[1:]).reshape(self.n_rows, -1)
+        return *self._split(h), C
 
     def jacobians(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(h at knots >= 1, lower bounds, the per-knot Jacobians J_k at knots >= 1: (K - 1, m, n_dof)); C without
         forming it (mpc/knot_rows.py)."""
-        (K, npos), nd = self.B.shape, self.n_dof
-        out = self.map(i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p)
-        h, J = out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, nd)
-        return h[1:].ravel().copy(), np.tile(np.minimum(h[0], 0.0), K - 1), J[1:].copy()
+        h, J = self._rows_and_jacobians(x, p)
+        return *self._split(h), J[1:].copy()
 
     def entries(self, rows: np.ndarray, cols: np.ndarray) -> tuple[np.ndarray, ...]:
         """Where the Jacobian's entries C[rows, cols] (cols: position variables) come from, for `evaluate_entries`:
@@ -236,19 +245,14 @@ class KnotConstraints:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(h at knots >= 1, lower bounds, the Jacobian's values at `entries`): `evaluate` without the dense C, the
         same products J_k[j, i] b_k[a] (to the bit)."""
-        (K, npos), nd = self.B.shape, self.n_dof
-        out = self.map(i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p)
-        h, J = out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, nd)
+        h, J = self._rows_and_jacobians(x, p)
         knot, row, joint, point = entries
-        return h[1:].ravel().copy(), np.tile(np.minimum(h[0], 0.0), K - 1), J[knot, row, joint] * self.B[knot, point]
+        return *self._split(h), J[knot, row, joint] * self.B[knot, point]
 
     def curvature(self, x: np.ndarray, p: np.ndarray, lam: np.ndarray) -> np.ndarray:
         """Per-knot Hessians of lam . h with respect to q_k (K x n_dof^2; knot 0 has no rows: zero)."""
-        (K, npos), nd = self.B.shape, self.n_dof
-        out = self.curvature_map(
-            i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p, i2=np.r_[np.zeros(self.m), lam]
-        )
-        return out["o0"].reshape(K, nd * nd).copy()
+        out = self.curvature_map(i0=self._at_knots(x), i1=p, i2=np.r_[np.zeros(self.m), lam])
+        return out["o0"].reshape(self.B.shape[0], self.n_dof**2).copy()
 
 
 def shared_derivatives(problem: Problem, exact: bool = False, compile_now: bool = True) -> KnotDerivatives:
