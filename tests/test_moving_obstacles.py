@@ -17,7 +17,8 @@ from harmony_cli.cli import app
 from harmony_cli.experiment.run import run_scenario
 from harmony_cli.maths.shapes import Shape, obstacle_shape
 from harmony_cli.mpc import wholebody
-from harmony_cli.mpc.planner import HandState, Obstacle, TaskPlanner
+from harmony_cli.mpc.hand_plan import HandState, Obstacle
+from harmony_cli.mpc.planner import TaskPlanner
 from harmony_cli.scenario import ObstacleSpec, PlannerSpec, ScenarioError, WorldSpec, load_scenario
 from harmony_cli.sim.simulation import Simulation
 from harmony_cli.tasks.motion import centre_at, obstacle_predictor

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.mpc.planner import HandState, Obstacle, TaskPlanner
+from harmony_cli.mpc.hand_plan import HandState, Obstacle
+from harmony_cli.mpc.planner import TaskPlanner
 from harmony_cli.scenario import PlannerSpec
 
 SPEC = PlannerSpec()

@@ -13,81 +13,51 @@ its clearance, linearised at the current plan, from where the obstacle is at tha
 centre); the hands keep the goal's distance apart. Gauss-Newton SQP over the free control points, one DAQP QP per
 iteration: `phase_iterations` at a phase change, `iterations` (1: real-time iteration) on every other step. When
 the bounds cannot be met by the phase's end, the horizon is stretched.
+
+Global guidance: a local SQP linearised at the straight line cannot find its way round an obstacle on it (the
+distance gradient points along the path) and may pass it with the hands on opposite sides. When a phase's first
+plan fails, or misses its clearance, or has an obstacle between the hands (split around it), and when
+any later re-plan fails, the SQP runs again from the straight line moved onto the shortest planar route around the
+obstacles (plan_seed.py, route.py); that plan is taken if it succeeds and keeps its shape (status "... (route)").
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import casadi as cs
 import numpy as np
 
 from harmony_cli.maths.bezier import bernstein_basis, difference_matrix, shift_matrix
-from harmony_cli.maths.rotations import rot_z
-from harmony_cli.maths.shapes import Shape
 from harmony_cli.mpc.codegen import Buffered
+from harmony_cli.mpc.hand_plan import ROWS, HandState, Obstacle, Plan, PlannerResult
+from harmony_cli.mpc.plan_seed import moved_onto, route_around, straight_line
 from harmony_cli.mpc.problem import NoPlanToHold
 
 if TYPE_CHECKING:
     from harmony_cli.scenario.models import PlannerSpec
 
-ROWS = 7  # hand 0 xyz, hand 1 xyz, heading
 STRETCHES = (1.0, 1.5, 2.25, 3.5, 5.0)  # horizon factors tried when the rate bounds cannot be met in time
+BETWEEN = np.array([0.25, 0.5, 0.75])  # fractions of the way from hand 0 to hand 1 checked for an obstacle
+CLEARANCE_SLACK = 5e-3  # [m] predicted clearance shortfall tolerated in a phase's first plan
+
+
+_Ends = tuple[HandState, np.ndarray, float]  # the measured state, the goal (2, 3), the goal heading
 
 
 @dataclass(frozen=True)
-class HandState:
-    positions: np.ndarray  # (2, 3) world
-    velocities: np.ndarray  # (2, 3)
-    heading: float  # psi [rad]
-    heading_rate: float = 0.0  # [rad/s]
+class _Solved:
+    """One SQP's outcome: control points, horizon (stretched or not), status, iterations, predicted clearance."""
 
-
-@dataclass(frozen=True)
-class Obstacle:
-    shape: Shape  # where it is at t = 0
-    clearance: float  # required signed distance of a hand centre [m] (margin + hand radius)
-    motion: Callable[[np.ndarray], np.ndarray] | None = None  # absolute times (n,) -> predicted centres (n, 3)
-
-
-@dataclass(frozen=True)
-class Plan:
-    """The planned curves over [start, start + horizon]; held at the goal after the end."""
-
-    control_points: np.ndarray  # (7, M)
-    start: float
-    horizon: float
-    home_rotations: np.ndarray  # (2, 3, 3)
-
-    def rates(self, t: float) -> np.ndarray:
-        """d/dt of the 7 curves at absolute time t (zero after the end)."""
-        s = (t - self.start) / self.horizon
-        if s >= 1.0:
-            return np.zeros(ROWS)
-        n = self.control_points.shape[1] - 1
-        hodograph = n * (self.control_points[:, 1:] - self.control_points[:, :-1]) / self.horizon  # np.diff's, faster
-        return hodograph @ bernstein_basis(n, max(s, 0.0))[0]
-
-    def sample(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Hand positions (n, 2, 3) and rotations (n, 2, 3, 3) at absolute times."""
-        s = ((np.atleast_1d(times) - self.start) / self.horizon).clip(0.0, 1.0)  # np.clip's ufunc, ~3 us less
-        values = self.control_points @ bernstein_basis(self.control_points.shape[1], s).T  # (7, n)
-        positions = values[:6].T.reshape(-1, 2, 3)
-        rotations = np.einsum("nij,hjk->nhik", rot_z(values[6]), self.home_rotations)
-        return positions, rotations
-
-
-@dataclass(frozen=True)
-class PlannerResult:
-    plan: Plan
+    C: np.ndarray
+    T: float
     success: bool
     status: str
     iterations: int
-    solve_time: float
-    min_clearance: float  # predicted, over samples and obstacles [m] (inf without obstacles)
+    clearance: float
+    stretch: float  # the horizon factor it needed (1: none)
 
 
 class TaskPlanner:
@@ -173,20 +143,37 @@ class TaskPlanner:
         over a flat-topped obstacle needs its bottom above the top, not a sphere's worth above it."""
         carried = None if carrying_radius is None else (carrying_radius, carrying_drop)
         start_time = time.perf_counter()
-        spec, M = self.spec, self.M
-        T = max(phase_end - t, spec.min_horizon)
+        T = max(phase_end - t, self.spec.min_horizon)
         heading_goal = self.goal_heading(goal, state.heading)
-        if self.C is None or phase != self.phase:  # straight line to the goal, then full SQP
-            C = np.zeros((ROWS, M))
+        previous = self.C if phase == self.phase else None
+        fresh = previous is None
+        if previous is None:  # straight line to the goal, then full SQP
             start = np.concatenate([state.positions.ravel(), [state.heading]])
-            end = np.concatenate([goal.ravel(), [heading_goal]])
-            C[:] = start[:, None] + (end - start)[:, None] * np.linspace(0, 1, M)
-            iterations = spec.phase_iterations
+            C = straight_line(start, np.concatenate([goal.ravel(), [heading_goal]]), self.M)
+            iterations = self.spec.phase_iterations
         else:  # the previous plan from now on (de Casteljau), re-timed to the new horizon
             tau = min(max((t - self.t_plan) / self.T_plan, 0.0), 0.99)  # np.clip costs ~4 us on a float
-            C = self.C @ shift_matrix(M, tau) if tau > 0 else self.C.copy()
-            iterations = spec.iterations
+            C = previous @ shift_matrix(self.M, tau) if tau > 0 else previous.copy()
+            iterations = self.spec.iterations
         width = float(np.linalg.norm(goal[1] - goal[0]))
+        solved = self._solve(C, t, T, (state, goal, heading_goal), iterations, carried, width)
+        if self.obstacles and not (solved.success and (not fresh or self._clean(solved))):
+            solved = self._on_route(solved, t, T, (state, goal, heading_goal), carried, width)
+        C, success, status = solved.C, solved.success, solved.status
+        if success and not np.isfinite(C).all():  # NaN / inf never becomes the plan: the last one is held
+            success, status = False, "non-finite plan"
+        if success:
+            self.C, self.phase, self.t_plan, self.T_plan = C, phase, t, solved.T
+        if self.C is None:
+            raise NoPlanToHold(f"first planner solve failed ({status}); no plan to hold")
+        plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
+        return PlannerResult(
+            plan, success, status, solved.iterations, time.perf_counter() - start_time, solved.clearance
+        )
+
+    def _solve(self, C: np.ndarray, t: float, T: float, ends: _Ends, iterations: int, carried, width: float) -> _Solved:
+        """Gauss-Newton SQP from `C` (changed in place) towards `ends` = (state, goal, goal heading)."""
+        state, goal, heading_goal = ends
         status, success, clearance, it = "max_iter", True, np.inf, 0
         # the measured start may not allow reaching the goal at rest within the rate bounds by the phase's end
         # (the hands lag, the phase is short): then the plan takes longer, and says so
@@ -204,18 +191,49 @@ class TaskPlanner:
                 success = False
                 break
             C[self.free] += step
-            if np.abs(step).max() < spec.tol:
+            if np.abs(step).max() < self.spec.tol:
                 status = "converged"
                 break
-        status += suffix
-        if success and not np.isfinite(C).all():  # NaN / inf never becomes the plan: the last one is held
-            success, status = False, "non-finite plan"
-        if success:
-            self.C, self.phase, self.t_plan, self.T_plan = C, phase, t, T
-        if self.C is None:
-            raise NoPlanToHold(f"first planner solve failed ({status}); no plan to hold")
-        plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
-        return PlannerResult(plan, success, status, it, time.perf_counter() - start_time, clearance)
+        return _Solved(C, T, success, status + suffix, it, clearance, stretch)
+
+    def _keeps_shape(self, solved: _Solved) -> bool:
+        """Whether a plan passes every obstacle with both hands on one side: its predicted clearance is met and no
+        standing obstacle is between the hands at a sample (a local SQP may split them around one)."""
+        curves = solved.C[:6] @ self.B.T
+        hands = curves.reshape(2, 3, -1).transpose(0, 2, 1)  # (hand, sample, xyz)
+        between = (hands[0] + BETWEEN[:, None, None] * (hands[1] - hands[0])).reshape(-1, 3)
+        for obstacle in self.obstacles:
+            if obstacle.motion is None and obstacle.shape.distance(between)[0].min() < 0.0:
+                return False
+        return solved.clearance >= -CLEARANCE_SLACK
+
+    def _clean(self, solved: _Solved) -> bool:
+        """A phase's first plan that needs no second look: converged in time, clear, hands on one side."""
+        return solved.status == "converged" and self._keeps_shape(solved)
+
+    def _rank(self, solved: _Solved) -> tuple:
+        """What makes one plan better than another: success, shape kept, less stretch, converged."""
+        return (
+            solved.success,
+            solved.success and self._keeps_shape(solved),
+            -solved.stretch,
+            solved.status == "converged",
+        )
+
+    def _on_route(self, solved: _Solved, t: float, T: float, ends: _Ends, carried, width: float) -> _Solved:
+        """The SQP again from the straight line moved onto a planar route around the obstacles (plan_seed.py); taken
+        if it ranks above the plan from the straight line."""
+        state, goal, heading_goal = ends
+        route = route_around(self.obstacles, state.positions, goal, carried)
+        if route is None or len(route.points) == 2:  # no way round, or nothing in the way: nothing to seed
+            return solved
+        start = np.concatenate([state.positions.ravel(), [state.heading]])
+        C = straight_line(start, np.concatenate([goal.ravel(), [heading_goal]]), self.M)
+        self._fixed(C, state, goal, heading_goal, T)
+        C = moved_onto(C, route, self.B, self.s, self.free)
+        seeded = self._solve(C, t, T, ends, self.spec.phase_iterations, carried, width)
+        seeded = replace(seeded, status=seeded.status + " (route)")
+        return seeded if self._rank(seeded) > self._rank(solved) else solved
 
     def _sqp_step(self, C: np.ndarray, t: float, T: float, carried: tuple[float, float] | None, width: float):
         """One Gauss-Newton QP over the free control points of the plan over [t, t + T]: (step or None, predicted

@@ -11,7 +11,8 @@ import numpy as np
 
 from harmony_cli.maths.rotations import heading_of
 from harmony_cli.maths.shapes import obstacle_shape, table_top_pose
-from harmony_cli.mpc.planner import HandState, Obstacle, PlannerResult, TaskPlanner
+from harmony_cli.mpc.hand_plan import HandState, Obstacle, PlannerResult
+from harmony_cli.mpc.planner import TaskPlanner
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.observation import Observation
 from harmony_cli.tasks.motion import centre_at

@@ -1,0 +1,122 @@
+"""A planar route around obstacles: the shortest path in the plane between two points that keeps out of every
+obstacle grown by a radius, on a visibility graph.
+
+Why a visibility graph: in the plane, the shortest path among convex obstacles runs straight between their
+corners, so the graph of mutually visible corners (plus the two ends) holds it exactly for the polygons used, and
+with a handful of obstacles it is a few hundred segment tests (about a millisecond), no grid resolution to choose
+and no sampling to seed. Round shapes become circumscribed polygons (the route keeps at least the radius away).
+
+The task-space planner uses it as the homotopy of its local SQP (which side of each obstacle to pass), not as the
+path itself: the SQP refines the route with the true clearances, speed bounds and the hands' geometry.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse.csgraph import dijkstra
+
+from harmony_cli.maths.shapes import Shape
+
+SIDES = 16  # polygon sides of a grown round shape or corner
+OUTSET = 1e-6  # [m] corners pushed out so a route along an edge does not count as entering
+
+
+@dataclass(frozen=True)
+class Route:
+    points: np.ndarray  # (n, 2) from start to goal, corners in between
+    length: float  # [m]
+
+    def at(self, s: np.ndarray) -> np.ndarray:
+        """Points (len(s), 2) at arc-length fractions s in [0, 1]."""
+        along = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(self.points, axis=0), axis=1))]
+        if along[-1] <= 0.0:
+            return np.repeat(self.points[:1], len(s), axis=0)
+        distance = np.clip(s, 0.0, 1.0) * along[-1]
+        return np.column_stack([np.interp(distance, along, self.points[:, i]) for i in (0, 1)])
+
+
+def footprint(shape: Shape, radius: float) -> np.ndarray:
+    """The plan-view outline (k, 2) of `shape` grown by `radius`, counter-clockwise, containing the true one."""
+    circumscribed = _unit_ring() / np.cos(np.pi / SIDES)
+    if shape.kind in ("cylinder", "sphere"):
+        return shape.centre[:2] + (shape.half[0] + radius) * circumscribed
+    c, s = np.cos(shape.yaw), np.sin(shape.yaw)
+    corners = np.array([[sx * shape.half[0], sy * shape.half[1]] for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1))])
+    corners = corners @ np.array([[c, s], [-s, c]]) + shape.centre[:2]
+    return _convex_hull((corners[:, None, :] + radius * circumscribed[None]).reshape(-1, 2))
+
+
+def plan_route(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray]) -> Route | None:
+    """Shortest path from `start` to `goal` (2,) outside the convex `outlines` (counter-clockwise (k, 2) each);
+    an outline holding either end is left out (the route cannot leave it, the caller's local solver may); None if
+    the ends are not connected."""
+    start, goal = np.asarray(start, float)[:2], np.asarray(goal, float)[:2]
+    blocking = [o for o in outlines if not (_inside(o, start) or _inside(o, goal))]
+    nodes = [start, goal] + [_pushed_out(o)[i] for o in blocking for i in range(len(o))]
+    nodes_array = np.array(nodes)
+    n = len(nodes_array)
+    weights = np.zeros((n, n))
+    for i in range(n):
+        for j in range(i + 1, n):
+            if not any(_crosses(o, nodes_array[i], nodes_array[j]) for o in blocking):
+                weights[i, j] = weights[j, i] = max(float(np.linalg.norm(nodes_array[i] - nodes_array[j])), 1e-12)
+    distances, previous = dijkstra(weights, directed=False, indices=0, return_predecessors=True)
+    if not np.isfinite(distances[1]):
+        return None
+    path, node = [1], 1
+    while node != 0:
+        node = int(previous[node])
+        path.append(node)
+    return Route(nodes_array[path[::-1]], float(distances[1]))
+
+
+def _unit_ring() -> np.ndarray:
+    angles = 2 * np.pi * (np.arange(SIDES) + 0.5) / SIDES
+    return np.column_stack([np.cos(angles), np.sin(angles)])
+
+
+def _convex_hull(points: np.ndarray) -> np.ndarray:
+    """Counter-clockwise hull (Andrew's monotone chain)."""
+    pts = sorted(map(tuple, points))
+
+    def half(sequence):
+        chain: list[tuple[float, float]] = []
+        for p in sequence:
+            while len(chain) >= 2 and _cross(chain[-2], chain[-1], p) <= 0:
+                chain.pop()
+            chain.append(p)
+        return chain
+
+    lower, upper = half(pts), half(reversed(pts))
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def _cross(o, a, b) -> float:
+    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+
+def _pushed_out(outline: np.ndarray) -> np.ndarray:
+    centre = outline.mean(axis=0)
+    d = outline - centre
+    return outline + OUTSET * d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def _inside(outline: np.ndarray, point: np.ndarray) -> bool:
+    edges = np.roll(outline, -1, axis=0) - outline
+    rel = point - outline
+    return bool(np.all(edges[:, 0] * rel[:, 1] - edges[:, 1] * rel[:, 0] > 0))
+
+
+def _crosses(outline: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether segment a-b enters the interior of the convex outline (separating axes: its edges' normals and the
+    segment's; touching an edge or a corner is not entering)."""
+    edges = np.roll(outline, -1, axis=0) - outline
+    axes = np.vstack([np.column_stack([edges[:, 1], -edges[:, 0]]), [[a[1] - b[1], b[0] - a[0]]]])
+    lengths = np.linalg.norm(axes, axis=1)
+    axes = axes[lengths > 1e-15] / lengths[lengths > 1e-15, None]
+    polygon, segment = outline @ axes.T, np.array([a, b]) @ axes.T
+    tol = 1e-9
+    separated = (segment.max(axis=0) <= polygon.min(axis=0) + tol) | (segment.min(axis=0) >= polygon.max(axis=0) - tol)
+    return not bool(separated.any())

@@ -1,0 +1,58 @@
+"""The planar route around obstacles (visibility graph) against the analytic shortest path and the shapes' own
+signed distances."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from harmony_cli.maths.shapes import Shape
+from harmony_cli.mpc.route import SIDES, footprint, plan_route
+
+
+def _cylinder(x: float, y: float, radius: float) -> Shape:
+    return Shape("cylinder", np.array([x, y, 1.0]), 0.0, np.array([radius, radius, 1.0]))
+
+
+def _clearance(route, shape: Shape) -> float:
+    points = route.at(np.linspace(0.0, 1.0, 2000))
+    return float(shape.distance(np.column_stack([points, np.full(len(points), 1.0)]))[0].min())
+
+
+def test_an_unobstructed_route_is_the_straight_segment():
+    route = plan_route(np.zeros(2), np.array([2.0, 0.0]), [footprint(_cylinder(1.0, 1.0, 0.3), 0.2)])
+    assert route is not None and len(route.points) == 2 and route.length == 2.0
+
+
+def test_the_route_round_a_circle_is_the_tangent_arc_tangent_path_to_within_the_polygon():
+    # start and goal 1 m either side of a 0.5 m circle: shortest path = 2 tangents + the arc between them
+    d, r = 1.0, 0.5
+    route = plan_route(np.array([-d, 0.0]), np.array([d, 0.0]), [footprint(_cylinder(0.0, 0.0, 0.3), 0.2)])
+    tangent, arc = np.sqrt(d * d - r * r), r * (np.pi - 2 * np.arccos(r / d))
+    exact = 2 * tangent + arc
+    assert route is not None
+    assert exact - 1e-9 <= route.length <= exact / np.cos(np.pi / SIDES)
+    assert _clearance(route, _cylinder(0.0, 0.0, 0.3)) >= 0.2 - 1e-6
+
+
+def test_the_route_keeps_a_boxs_grown_outline_clear_and_passes_between_two_obstacles_when_the_gap_allows():
+    crate = Shape("box", np.array([1.0, 0.3, 0.5]), np.deg2rad(30), np.array([0.2, 0.3, 0.5]))
+    post = _cylinder(1.0, -0.7, 0.2)
+    outlines = [footprint(crate, 0.15), footprint(post, 0.15)]
+    route = plan_route(np.zeros(2), np.array([2.0, 0.0]), outlines)
+    assert route is not None
+    assert _clearance(route, crate) >= 0.15 - 1e-6 and _clearance(route, post) >= 0.15 - 1e-6
+    y = route.at(np.linspace(0, 1, 500))[:, 1]
+    assert y.min() > -0.7 and y.max() < 0.3  # through the gap, not round the outside of either
+
+
+def test_a_start_walled_in_has_no_route():
+    walls = [
+        Shape("box", np.array([x, y, 0.5]), 0.0, np.array([hx, hy, 0.5]))
+        for x, y, hx, hy in (
+            (0.0, 1.0, 1.1, 0.05),
+            (0.0, -1.0, 1.1, 0.05),
+            (1.0, 0.0, 0.05, 1.1),
+            (-1.0, 0.0, 0.05, 1.1),
+        )
+    ]
+    assert plan_route(np.zeros(2), np.array([3.0, 0.0]), [footprint(w, 0.1) for w in walls]) is None
