@@ -24,9 +24,9 @@ from harmony_cli.study.plan import plan_runs
 from harmony_cli.study.report import wilson, write_report
 from harmony_cli.study.runner import Options, plan_study, run_study
 from harmony_cli.study.sampling import Sampler
-from harmony_cli.study.scene_check import SceneCheck, planar_gap
 from harmony_cli.study.spec import base_scenario_path, load_study
 from harmony_cli.study.table import TABLE, flatten
+from harmony_cli.tasks.scene_check import SceneCheck, planar_gap
 
 STUDY = ROOT / "studies" / "smoke_box_lift.yaml"
 TIMING = ("_ms", "time_s", "wall_clock", "run_dir")  # columns that differ between two runs of one scene

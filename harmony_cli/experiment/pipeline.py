@@ -14,7 +14,7 @@ from typing import IO, TYPE_CHECKING
 
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
-from harmony_cli.experiment.faults import HeldPlans, Writes, failed, fault_of
+from harmony_cli.experiment.faults import HeldPlans, RunFault, Writes, failed, fault_of
 from harmony_cli.experiment.health import Health, check_start
 from harmony_cli.experiment.interrupts import RunInterrupted, interrupted_summary, signals_end_the_run
 from harmony_cli.experiment.loop import Watch, run_loop
@@ -29,6 +29,7 @@ from harmony_cli.sim.simulation import Simulation
 from harmony_cli.sim.video import VideoRecorder, frame_every
 from harmony_cli.tasks.motion import Predictor, obstacle_predictor
 from harmony_cli.tasks.reference import HandReference, trajectory_references
+from harmony_cli.tasks.scene_check import SceneCheck
 from harmony_cli.tasks.targets import References
 from harmony_cli.tasks.two_stage import TaskReferences
 
@@ -61,11 +62,14 @@ class Built:
 
 def build(scenario: Scenario, scenario_dir: Path) -> Built:
     """The simulation first: a robot that starts inside the ground or an obstacle is refused before the MPCs'
-    build (RunFault "penetration")."""
+    build (RunFault "penetration"), and so is a task with a hand target out of reach or behind a gap the base
+    cannot pass (RunFault "impossible")."""
     robot = robot_of(scenario, scenario_dir)
     sim = Simulation(robot, scenario.sim, scenario.world, scenario.pushes)
     try:
         check_start(sim.penetrations())
+        if (why := SceneCheck(scenario_dir).unreachable(scenario)) is not None:
+            raise RunFault("impossible", f"the scene has no solution before the robot moves: {why}")
         mpc = WholeBodyMPC(robot, scenario, scenario.sim.control_dt)
     except BaseException:
         sim.close()

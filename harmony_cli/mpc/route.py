@@ -54,14 +54,13 @@ def plan_route(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray]) 
     the ends are not connected."""
     start, goal = np.asarray(start, float)[:2], np.asarray(goal, float)[:2]
     blocking = [o for o in outlines if not (_inside(o, start) or _inside(o, goal))]
-    nodes = [start, goal] + [_pushed_out(o)[i] for o in blocking for i in range(len(o))]
-    nodes_array = np.array(nodes)
-    n = len(nodes_array)
-    weights = np.zeros((n, n))
-    for i in range(n):
-        for j in range(i + 1, n):
-            if not any(_crosses(o, nodes_array[i], nodes_array[j]) for o in blocking):
-                weights[i, j] = weights[j, i] = max(float(np.linalg.norm(nodes_array[i] - nodes_array[j])), 1e-12)
+    nodes = np.array([start, goal] + [_pushed_out(o)[i] for o in blocking for i in range(len(o))])
+    i, j = np.triu_indices(len(nodes), k=1)
+    visible = np.ones(len(i), dtype=bool)
+    for outline in blocking:
+        visible &= ~_crosses(outline, nodes[i], nodes[j])
+    weights = np.zeros((len(nodes), len(nodes)))
+    weights[i[visible], j[visible]] = np.maximum(np.linalg.norm(nodes[i[visible]] - nodes[j[visible]], axis=1), 1e-12)
     distances, previous = dijkstra(weights, directed=False, indices=0, return_predecessors=True)
     if not np.isfinite(distances[1]):
         return None
@@ -69,7 +68,7 @@ def plan_route(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray]) 
     while node != 0:
         node = int(previous[node])
         path.append(node)
-    return Route(nodes_array[path[::-1]], float(distances[1]))
+    return Route(nodes[path[::-1]], float(distances[1]))
 
 
 def _unit_ring() -> np.ndarray:
@@ -109,14 +108,21 @@ def _inside(outline: np.ndarray, point: np.ndarray) -> bool:
     return bool(np.all(edges[:, 0] * rel[:, 1] - edges[:, 1] * rel[:, 0] > 0))
 
 
-def _crosses(outline: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:
-    """Whether segment a-b enters the interior of the convex outline (separating axes: its edges' normals and the
-    segment's; touching an edge or a corner is not entering)."""
-    edges = np.roll(outline, -1, axis=0) - outline
-    axes = np.vstack([np.column_stack([edges[:, 1], -edges[:, 0]]), [[a[1] - b[1], b[0] - a[0]]]])
-    lengths = np.linalg.norm(axes, axis=1)
-    axes = axes[lengths > 1e-15] / lengths[lengths > 1e-15, None]
-    polygon, segment = outline @ axes.T, np.array([a, b]) @ axes.T
+def _crosses(outline: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Whether each segment a[n]-b[n] ((n, 2) each) enters the interior of the convex outline (separating axes:
+    its edges' normals and the segment's; touching an edge or a corner is not entering)."""
     tol = 1e-9
-    separated = (segment.max(axis=0) <= polygon.min(axis=0) + tol) | (segment.min(axis=0) >= polygon.max(axis=0) - tol)
-    return not bool(separated.any())
+    edges = np.roll(outline, -1, axis=0) - outline
+    normals = np.column_stack([edges[:, 1], -edges[:, 0]])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    polygon = outline @ normals.T  # (vertices, edges)
+    low, high = polygon.min(axis=0), polygon.max(axis=0)
+    pa, pb = a @ normals.T, b @ normals.T  # (n, edges)
+    apart = (np.maximum(pa, pb) <= low + tol) | (np.minimum(pa, pb) >= high - tol)
+    across = np.column_stack([a[:, 1] - b[:, 1], b[:, 0] - a[:, 0]])  # the segments' own normals
+    length = np.linalg.norm(across, axis=1, keepdims=True)
+    across = across / np.maximum(length, 1e-15)
+    own = (outline @ across.T).T  # (n, vertices)
+    level = np.sum(a * across, axis=1)  # both ends project here
+    beside = (level <= own.min(axis=1) + tol) | (level >= own.max(axis=1) - tol)
+    return ~(apart.any(axis=1) | (beside & (length[:, 0] > 1e-15)))

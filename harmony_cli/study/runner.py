@@ -15,9 +15,9 @@ from harmony_cli.scenario import ScenarioError
 from harmony_cli.study.execute import Job, run_here, run_pool, run_ray
 from harmony_cli.study.plan import PlannedRun, code_version, plan_runs
 from harmony_cli.study.sampling import Sampler
-from harmony_cli.study.scene_check import SceneCheck
 from harmony_cli.study.spec import StudySpec, base_scenario_path, load_study
 from harmony_cli.study.table import NOT_RUN, TABLE, run_row, write_table
+from harmony_cli.tasks.scene_check import SceneCheck
 
 RERUN = ("failed", "interrupted", "all")  # what `--rerun` may ask for besides the runs never started
 PLOTS = ("none", "failed", "all")

@@ -1,6 +1,7 @@
 """Impossible scenes, refused before they run: an obstacle overlapping a table, the box (where it starts or at its
 goal) or the robot's start (within the obstacle's margin, which the whole-body MPC must keep); a hand target that
-no collision-free base pose brings within the arm's reach.
+no collision-free base pose brings within the arm's reach, or none the base can drive to from its start
+(passage.py).
 
 Geometry is planar where the bodies are vertical prisms (tables, boxes, cylinders, the base footprint) and exact
 for them; heights are compared as intervals. The reach test is a necessary condition only (the arm's links laid
@@ -18,6 +19,7 @@ from harmony_cli.maths.shapes import Shape, obstacle_shape, table_legs, table_sh
 from harmony_cli.robot.model import Robot
 from harmony_cli.scenario import Scenario, robot_of
 from harmony_cli.scenario.task import RelativeTarget
+from harmony_cli.tasks.passage import Passage, planar_distance
 
 BASE_YAWS = 8  # base headings tried at each candidate position
 BASE_STEP = 0.05  # [m] spacing of candidate base positions
@@ -28,13 +30,7 @@ def planar_gap(a: Shape, b: Shape) -> float:
     if a.kind == "box" and b.kind == "box":
         return _box_gap(a, b)
     circle, other = (a, b) if a.kind != "box" else (b, a)
-    return float(_planar_distance(other, circle.centre[None, :2])[0] - circle.half[0])
-
-
-def _planar_distance(shape: Shape, xy: np.ndarray) -> np.ndarray:
-    points = np.column_stack([xy, np.full(len(xy), shape.centre[2])])
-    flat = Shape("cylinder" if shape.kind == "sphere" else shape.kind, shape.centre, shape.yaw, shape.half)
-    return flat.distance(points)[0]
+    return float(planar_distance(other, circle.centre[None, :2])[0] - circle.half[0])
 
 
 def _corners(box: Shape) -> np.ndarray:
@@ -52,7 +48,7 @@ def _box_gap(a: Shape, b: Shape) -> float:
             pa, pb = ca @ axis, cb @ axis
             overlap = min(pa.max(), pb.max()) - max(pa.min(), pb.min())
             if overlap <= 0:
-                return float(min(_planar_distance(b, ca).min(), _planar_distance(a, cb).min()))
+                return float(min(planar_distance(b, ca).min(), planar_distance(a, cb).min()))
             depth = min(depth, overlap)
     return float(-depth)
 
@@ -100,7 +96,7 @@ class SceneCheck:
 
     def __call__(self, scenario: Scenario) -> str | None:
         """Why the scene is impossible, or None."""
-        return self._overlap(scenario) or self._unreachable(scenario)
+        return self._overlap(scenario) or self.unreachable(scenario)
 
     def reach(self, scenario: Scenario) -> list[Reach]:
         key = scenario.robot.model_dump_json(exclude={"base_pose"})  # where it starts does not change its arms
@@ -134,49 +130,72 @@ class SceneCheck:
                     )
         return None
 
-    def _unreachable(self, scenario: Scenario) -> str | None:
+    def unreachable(self, scenario: Scenario) -> str | None:
+        """Why some hand target cannot be reached (out of reach of every clear base pose, or no passage for the
+        base to one), or None."""
         if scenario.task is None:
             return None
-        blocked, reach = _static_outlines(scenario), self.reach(scenario)
-        for phase in scenario.task.phases:
-            for h, label in enumerate(scenario.robot.end_effectors):
-                target = _target_position(phase.hands.get(label), scenario)
-                if target is not None and not _reachable(reach[h], target, blocked, scenario.robot.footprint):
-                    return (
-                        f"phase {phase.name}: the {label} hand's target {np.round(target, 3).tolist()} is out of "
-                        f"reach from every collision-free base pose"
-                    )
+        blocked, reach, robot = _static_outlines(scenario), self.reach(scenario), scenario.robot
+        targets = [
+            (phase.name, h, label, target)
+            for phase in scenario.task.phases
+            for h, label in enumerate(robot.end_effectors)
+            if (target := _target_position(phase.hands.get(label), scenario)) is not None
+        ]
+        circles = np.asarray(robot.footprint, dtype=float).reshape(-1, 3)
+        passage = None
+        if len(circles) and targets:
+            ends = np.array([t[:2] for *_, t in targets])
+            passage = Passage(blocked, circles, np.asarray(robot.base_pose[:2], dtype=float), ends)
+        for phase, h, label, target in targets:
+            found = _base_place(reach[h], target, blocked, circles, passage)
+            if found == "out of reach":
+                return (
+                    f"phase {phase}: the {label} hand's target {np.round(target, 3).tolist()} is out of reach from "
+                    "every collision-free base pose"
+                )
+            if found == "no passage" and passage is not None:
+                margins = sorted({f"{m:g}" for _, m in blocked})
+                return (
+                    f"phase {phase}: no passage for the base from its start to where the {label} hand's target "
+                    f"{np.round(target, 3).tolist()} is in reach; the footprint is {passage.width:.3f} m wide at its "
+                    f"narrowest, so a gap must be wider than {passage.width:.3f} m plus the margins of the bodies "
+                    f"on either side ({' / '.join(margins)} m)"
+                )
         return None
 
 
-def _reachable(reach: Reach, target: np.ndarray, blocked: list, footprint: list) -> bool:
-    """Some base pose (a grid of positions x BASE_YAWS headings) has its footprint clear of `blocked` and the
-    target within the arm's reach."""
+def _base_place(reach: Reach, target: np.ndarray, blocked: list, circles: np.ndarray, passage: Passage | None) -> str:
+    """Whether some base pose (a grid of positions x BASE_YAWS headings) has its footprint clear of `blocked`, the
+    target within the arm's reach and the `passage` to it from the start: "ok", "out of reach" or "no passage"."""
     height = target[2] - reach.shoulder[2]
     if abs(height) > reach.length:
-        return False
+        return "out of reach"
     radius = np.sqrt(reach.length**2 - height**2)  # of the circle of shoulder positions in the target's plane
     span = np.arange(
         -radius - np.linalg.norm(reach.shoulder[:2]), radius + np.linalg.norm(reach.shoulder[:2]), BASE_STEP
     )
     grid = target[:2] + np.stack(np.meshgrid(span, span), axis=-1).reshape(-1, 2)
-    circles = np.asarray(footprint, dtype=float).reshape(-1, 3)
     extent = np.abs(span).max() * np.sqrt(2) + np.hypot(circles[:, 0], circles[:, 1]).max() + circles[:, 2].max()
     near_target = [  # shapes no candidate footprint can touch drop out
         (shape, margin)
         for shape, margin in blocked
         if np.hypot(*(shape.centre[:2] - target[:2])) <= extent + np.linalg.norm(shape.half[:2]) + margin
     ]
+    found = "out of reach"
     for yaw in np.linspace(0, 2 * np.pi, BASE_YAWS, endpoint=False):
         turn = np.array([[np.cos(yaw), np.sin(yaw)], [-np.sin(yaw), np.cos(yaw)]])  # row vectors turned by yaw
         near = grid[np.linalg.norm(grid + reach.shoulder[:2] @ turn - target[:2], axis=1) <= radius]
         centres = (near[:, None, :] + (circles[:, :2] @ turn)[None]).reshape(-1, 2)  # (positions x circles, 2)
         clear = np.ones(len(centres), dtype=bool)
         for shape, margin in near_target:
-            clear &= _planar_distance(shape, centres) - np.tile(circles[:, 2], len(near)) >= margin
-        if clear.reshape(len(near), len(circles)).all(axis=1).any():
-            return True
-    return False
+            clear &= planar_distance(shape, centres) - np.tile(circles[:, 2], len(near)) >= margin
+        places = near[clear.reshape(len(near), len(circles)).all(axis=1)]
+        if len(places):
+            if passage is None or passage.reaches(places):
+                return "ok"
+            found = "no passage"
+    return found
 
 
 def _footprint(circles, pose) -> list[Shape]:
