@@ -56,3 +56,17 @@ def test_a_start_walled_in_has_no_route():
         )
     ]
     assert plan_route(np.zeros(2), np.array([3.0, 0.0]), [footprint(w, 0.1) for w in walls]) is None
+
+
+def test_an_outline_holding_the_start_is_left_by_the_nearest_way_out_and_never_entered_again():
+    # hands over a table's edge (inside its grown outline) going to the far side of the table: out, then round
+    table = Shape("box", np.array([0.0, 0.0, 0.4]), 0.0, np.array([1.0, 0.4, 0.4]))
+    route = plan_route(np.array([0.0, 0.5]), np.array([0.0, -1.2]), [footprint(table, 0.3)])
+    assert route is not None and np.allclose(route.points[1], [0.0, 0.7], atol=1e-5)  # straight out over the edge
+    rest = route.at(np.linspace(0.0, 1.0, 2000))[route.at(np.linspace(0.0, 1.0, 2000))[:, 1] < 0.7 - 1e-4]
+    rest = rest[np.abs(rest[:, 0]) > 1e-3]  # past the way out
+    assert _clearance_of(rest, table) >= 0.3 - 1e-6
+
+
+def _clearance_of(points: np.ndarray, shape: Shape) -> float:
+    return float(shape.distance(np.column_stack([points, np.full(len(points), shape.centre[2])]))[0].min())

@@ -33,7 +33,7 @@ import numpy as np
 from harmony_cli.maths.bezier import bernstein_basis, difference_matrix, shift_matrix
 from harmony_cli.mpc.codegen import Buffered
 from harmony_cli.mpc.hand_plan import ROWS, HandState, Obstacle, Plan, PlannerResult
-from harmony_cli.mpc.plan_seed import moved_onto, route_around, straight_line
+from harmony_cli.mpc.plan_seed import Ground, moved_onto, route_around, straight_line
 from harmony_cli.mpc.problem import NoPlanToHold
 
 if TYPE_CHECKING:
@@ -63,8 +63,15 @@ class _Solved:
 class TaskPlanner:
     """Built once for a set of obstacles; `step` re-plans from the measured hand state."""
 
-    def __init__(self, spec: PlannerSpec, obstacles: list[Obstacle], home_rotations: np.ndarray, heading_offset: float):
-        self.spec, self.obstacles, self.home_rotations = spec, obstacles, home_rotations
+    def __init__(
+        self,
+        spec: PlannerSpec,
+        obstacles: list[Obstacle],
+        home_rotations: np.ndarray,
+        heading_offset: float,
+        ground: Ground | None = None,
+    ):
+        self.spec, self.obstacles, self.home_rotations, self.ground = spec, obstacles, home_rotations, ground
         self.heading_offset = heading_offset  # heading = angle(p_1 - p_0) + offset (pads face each other)
         M = self.M = spec.control_points
         self.free = np.zeros((ROWS, M), dtype=bool)
@@ -224,7 +231,7 @@ class TaskPlanner:
         """The SQP again from the straight line moved onto a planar route around the obstacles (plan_seed.py); taken
         if it ranks above the plan from the straight line."""
         state, goal, heading_goal = ends
-        route = route_around(self.obstacles, state.positions, goal, carried)
+        route = route_around(self.obstacles, state.positions, goal, carried, self.ground)
         if route is None or len(route.points) == 2:  # no way round, or nothing in the way: nothing to seed
             return solved
         start = np.concatenate([state.positions.ravel(), [state.heading]])

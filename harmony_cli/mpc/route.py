@@ -49,12 +49,14 @@ def footprint(shape: Shape, radius: float) -> np.ndarray:
 
 
 def plan_route(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray]) -> Route | None:
-    """Shortest path from `start` to `goal` (2,) outside the convex `outlines` (counter-clockwise (k, 2) each);
-    an outline holding either end is left out (the route cannot leave it, the caller's local solver may); None if
-    the ends are not connected."""
+    """Shortest path from `start` to `goal` (2,) outside the convex `outlines` (counter-clockwise (k, 2) each).
+    An end inside an outline leaves it by the nearest way out (e.g. hands over a table's edge: out over that
+    edge) and the rest of the path keeps out of it; None if the ends are not connected."""
     start, goal = np.asarray(start, float)[:2], np.asarray(goal, float)[:2]
-    blocking = [o for o in outlines if not (_inside(o, start) or _inside(o, goal))]
-    nodes = np.array([start, goal] + [_pushed_out(o)[i] for o in blocking for i in range(len(o))])
+    first, last = _way_out(start, outlines), _way_out(goal, outlines)
+    held = [o for o in outlines if _inside(o, first) or _inside(o, last)]  # still inside after the way out
+    blocking = [o for o in outlines if not any(o is h for h in held)]
+    nodes = np.array([first, last] + [_pushed_out(o)[i] for o in blocking for i in range(len(o))])
     i, j = np.triu_indices(len(nodes), k=1)
     visible = np.ones(len(i), dtype=bool)
     for outline in blocking:
@@ -68,7 +70,22 @@ def plan_route(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray]) 
     while node != 0:
         node = int(previous[node])
         path.append(node)
-    return Route(nodes[path[::-1]], float(distances[1]))
+    points = np.vstack([start, nodes[path[::-1]], goal])
+    points = points[np.r_[True, np.linalg.norm(np.diff(points, axis=0), axis=1) > 1e-12]]  # ends already out
+    return Route(points, float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum()))
+
+
+def _way_out(point: np.ndarray, outlines: list[np.ndarray]) -> np.ndarray:
+    """`point`, or, inside an outline, the nearest point just outside it (one outline: the first holding it)."""
+    for outline in outlines:
+        if _inside(outline, point):
+            edges = np.roll(outline, -1, axis=0) - outline
+            along = np.clip(np.sum((point - outline) * edges, axis=1) / np.sum(edges * edges, axis=1), 0.0, 1.0)
+            feet = outline + along[:, None] * edges
+            foot = feet[np.argmin(np.linalg.norm(feet - point, axis=1))]
+            away = foot - point
+            return foot + OUTSET * away / max(float(np.linalg.norm(away)), 1e-12)
+    return point
 
 
 def _unit_ring() -> np.ndarray:

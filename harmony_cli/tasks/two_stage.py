@@ -10,12 +10,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from harmony_cli.maths.rotations import heading_of
-from harmony_cli.maths.shapes import obstacle_shape, table_top_pose
+from harmony_cli.maths.shapes import obstacle_shape, table_shape, table_top_pose
 from harmony_cli.mpc.hand_plan import HandState, Obstacle, PlannerResult
+from harmony_cli.mpc.plan_seed import Ground
 from harmony_cli.mpc.planner import TaskPlanner
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.observation import Observation
 from harmony_cli.tasks.motion import centre_at
+from harmony_cli.tasks.passage import narrowest_width
 from harmony_cli.tasks.schedule import ActivePhase, Schedule
 from harmony_cli.tasks.targets import HandTargets
 
@@ -43,7 +45,7 @@ class TaskReferences:
             )  # the true motion predicts
             for o in scenario.world.obstacles
         ]
-        self.planner = TaskPlanner(scenario.planner, obstacles, self.home_rotations, offset)
+        self.planner = TaskPlanner(scenario.planner, obstacles, self.home_rotations, offset, _ground(scenario))
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
         box = scenario.world.box
         self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
@@ -106,3 +108,12 @@ class TaskReferences:
         return self.planner.step(
             t, state, self.goal, active.end, active.index, self.box_radius if holding else None, self.box_drop or 0.0
         )
+
+
+def _ground(scenario: Scenario) -> Ground | None:
+    """The tables and the base's half width at its narrowest, for the planner's route (None: no footprint)."""
+    circles = np.asarray(scenario.robot.footprint, dtype=float).reshape(-1, 3)
+    if len(circles) == 0:
+        return None
+    tables = [(table_shape(t), scenario.robot.base_margin) for t in scenario.world.tables]
+    return Ground(tables, 0.5 * narrowest_width(circles))
