@@ -65,3 +65,19 @@ class PlannerResult:
     iterations: int
     solve_time: float
     min_clearance: float  # predicted, over samples and obstacles [m] (inf without obstacles)
+
+
+Ends = tuple[HandState, np.ndarray, float]  # the measured state, the goal (2, 3), the goal heading
+
+
+@dataclass(frozen=True)
+class Solved:
+    """One SQP's outcome: control points, horizon (stretched or not), status, iterations, predicted clearance."""
+
+    C: np.ndarray
+    T: float
+    success: bool
+    status: str
+    iterations: int
+    clearance: float
+    stretch: float  # the horizon factor it needed (1: none)

@@ -24,7 +24,7 @@ obstacles (plan_seed.py, route.py); that plan is taken if it succeeds and keeps 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import casadi as cs
@@ -32,7 +32,7 @@ import numpy as np
 
 from harmony_cli.maths.bezier import bernstein_basis, difference_matrix, shift_matrix
 from harmony_cli.mpc.codegen import Buffered
-from harmony_cli.mpc.hand_plan import ROWS, HandState, Obstacle, Plan, PlannerResult
+from harmony_cli.mpc.hand_plan import ROWS, Ends, HandState, Obstacle, Plan, PlannerResult, Solved
 from harmony_cli.mpc.plan_seed import Ground, moved_onto, route_around, straight_line
 from harmony_cli.mpc.problem import NoPlanToHold
 
@@ -42,22 +42,6 @@ if TYPE_CHECKING:
 STRETCHES = (1.0, 1.5, 2.25, 3.5, 5.0)  # horizon factors tried when the rate bounds cannot be met in time
 BETWEEN = np.array([0.25, 0.5, 0.75])  # fractions of the way from hand 0 to hand 1 checked for an obstacle
 CLEARANCE_SLACK = 5e-3  # [m] predicted clearance shortfall tolerated in a phase's first plan
-
-
-_Ends = tuple[HandState, np.ndarray, float]  # the measured state, the goal (2, 3), the goal heading
-
-
-@dataclass(frozen=True)
-class _Solved:
-    """One SQP's outcome: control points, horizon (stretched or not), status, iterations, predicted clearance."""
-
-    C: np.ndarray
-    T: float
-    success: bool
-    status: str
-    iterations: int
-    clearance: float
-    stretch: float  # the horizon factor it needed (1: none)
 
 
 class TaskPlanner:
@@ -178,7 +162,7 @@ class TaskPlanner:
             plan, success, status, solved.iterations, time.perf_counter() - start_time, solved.clearance
         )
 
-    def _solve(self, C: np.ndarray, t: float, T: float, ends: _Ends, iterations: int, carried, width: float) -> _Solved:
+    def _solve(self, C: np.ndarray, t: float, T: float, ends: Ends, iterations: int, carried, width: float) -> Solved:
         """Gauss-Newton SQP from `C` (changed in place) towards `ends` = (state, goal, goal heading)."""
         state, goal, heading_goal = ends
         status, success, clearance, it = "max_iter", True, np.inf, 0
@@ -201,9 +185,9 @@ class TaskPlanner:
             if np.abs(step).max() < self.spec.tol:
                 status = "converged"
                 break
-        return _Solved(C, T, success, status + suffix, it, clearance, stretch)
+        return Solved(C, T, success, status + suffix, it, clearance, stretch)
 
-    def _keeps_shape(self, solved: _Solved) -> bool:
+    def _keeps_shape(self, solved: Solved) -> bool:
         """Whether a plan passes every obstacle with both hands on one side: its predicted clearance is met and no
         standing obstacle is between the hands at a sample (a local SQP may split them around one)."""
         curves = solved.C[:6] @ self.B.T
@@ -214,11 +198,11 @@ class TaskPlanner:
                 return False
         return solved.clearance >= -CLEARANCE_SLACK
 
-    def _clean(self, solved: _Solved) -> bool:
+    def _clean(self, solved: Solved) -> bool:
         """A phase's first plan that needs no second look: converged in time, clear, hands on one side."""
         return solved.status == "converged" and self._keeps_shape(solved)
 
-    def _rank(self, solved: _Solved) -> tuple:
+    def _rank(self, solved: Solved) -> tuple:
         """What makes one plan better than another: success, shape kept, less stretch, converged."""
         return (
             solved.success,
@@ -227,7 +211,7 @@ class TaskPlanner:
             solved.status == "converged",
         )
 
-    def _on_route(self, solved: _Solved, t: float, T: float, ends: _Ends, carried, width: float) -> _Solved:
+    def _on_route(self, solved: Solved, t: float, T: float, ends: Ends, carried, width: float) -> Solved:
         """The SQP again from the straight line moved onto a planar route around the obstacles (plan_seed.py); taken
         if it ranks above the plan from the straight line."""
         state, goal, heading_goal = ends
