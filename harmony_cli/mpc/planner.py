@@ -33,6 +33,7 @@ import numpy as np
 from harmony_cli.maths.bezier import bernstein_basis, difference_matrix, shift_matrix
 from harmony_cli.mpc.codegen import Buffered
 from harmony_cli.mpc.hand_plan import ROWS, Ends, HandState, Obstacle, Plan, PlannerResult, Solved
+from harmony_cli.mpc.plan_checks import keeps_shape
 from harmony_cli.mpc.plan_seed import Ground, moved_onto, route_around, straight_line
 from harmony_cli.mpc.problem import NoPlanToHold
 
@@ -40,8 +41,6 @@ if TYPE_CHECKING:
     from harmony_cli.scenario.models import PlannerSpec
 
 STRETCHES = (1.0, 1.5, 2.25, 3.5, 5.0)  # horizon factors tried when the rate bounds cannot be met in time
-BETWEEN = np.array([0.25, 0.5, 0.75])  # fractions of the way from hand 0 to hand 1 checked for an obstacle
-CLEARANCE_SLACK = 5e-3  # [m] predicted clearance shortfall tolerated in a phase's first plan
 
 
 class TaskPlanner:
@@ -187,26 +186,15 @@ class TaskPlanner:
                 break
         return Solved(C, T, success, status + suffix, it, clearance, stretch)
 
-    def _keeps_shape(self, solved: Solved) -> bool:
-        """Whether a plan passes every obstacle with both hands on one side: its predicted clearance is met and no
-        standing obstacle is between the hands at a sample (a local SQP may split them around one)."""
-        curves = solved.C[:6] @ self.B.T
-        hands = curves.reshape(2, 3, -1).transpose(0, 2, 1)  # (hand, sample, xyz)
-        between = (hands[0] + BETWEEN[:, None, None] * (hands[1] - hands[0])).reshape(-1, 3)
-        for obstacle in self.obstacles:
-            if obstacle.motion is None and obstacle.shape.distance(between)[0].min() < 0.0:
-                return False
-        return solved.clearance >= -CLEARANCE_SLACK
-
     def _clean(self, solved: Solved) -> bool:
         """A phase's first plan that needs no second look: converged in time, clear, hands on one side."""
-        return solved.status == "converged" and self._keeps_shape(solved)
+        return solved.status == "converged" and keeps_shape(solved, self.B, self.obstacles)
 
     def _rank(self, solved: Solved) -> tuple:
         """What makes one plan better than another: success, shape kept, less stretch, converged."""
         return (
             solved.success,
-            solved.success and self._keeps_shape(solved),
+            solved.success and keeps_shape(solved, self.B, self.obstacles),
             -solved.stretch,
             solved.status == "converged",
         )
