@@ -116,6 +116,27 @@ def test_carrying_plan_passes_two_cylinders_on_either_side_of_the_straight_path_
     np.testing.assert_allclose(width, np.linalg.norm(START[1] - START[0]), atol=0.02)
 
 
+@pytest.mark.parametrize("yaw_deg", [90.0, -135.0])
+def test_a_scene_turned_about_z_gives_the_plan_turned_the_same_whatever_the_robot_s_home_yaw(yaw_deg):
+    # the robot's home (hence its hand frames and the heading offset) turned with the scene: the plan must turn
+    # with it; the facing term once assumed a home facing +x and twisted a turned robot's heading by ~55 deg
+    yaw = np.deg2rad(yaw_deg)
+    turn = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
+    obstacles = [_cylinder(-0.2)]
+    turned_obstacles = [
+        Obstacle(Shape("cylinder", turn @ o.shape.centre, 0.0, o.shape.half), o.clearance) for o in obstacles
+    ]
+    start, goal = START @ turn.T, GOAL @ turn.T
+    d = start[1] - start[0]
+    planner = TaskPlanner(SPEC, turned_obstacles, np.stack([turn, turn]), -np.arctan2(d[1], d[0]))
+    turned = planner.step(0.0, HandState(start, np.zeros((2, 3)), 0.0), goal, PHASE_END, 0, CARRYING)
+    _, result = _plan(obstacles, carrying=CARRYING)
+    assert turned.success and result.success
+    times = np.linspace(0.0, PHASE_END, 50)
+    np.testing.assert_allclose(turned.plan.sample(times)[0], result.plan.sample(times)[0] @ turn.T, atol=1e-6)
+    np.testing.assert_allclose(turned.plan.control_points[6], result.plan.control_points[6], atol=1e-6)
+
+
 @pytest.mark.parametrize("obstacles", [[], [_cylinder(-0.2)]], ids=["free", "cylinder"])
 def test_replan_from_the_plan_s_own_state_continues_the_same_plan(obstacles):
     planner, first = _plan(obstacles, carrying=CARRYING)

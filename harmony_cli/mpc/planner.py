@@ -56,6 +56,8 @@ class TaskPlanner:
     ):
         self.spec, self.obstacles, self.home_rotations, self.ground = spec, obstacles, home_rotations, ground
         self.heading_offset = heading_offset  # heading = angle(p_1 - p_0) + offset (pads face each other)
+        # the pads face along h(heading + this): 0 when home faces +x, the home's own yaw when it does not
+        self.facing_shift = np.pi / 2 - heading_offset
         M = self.M = spec.control_points
         self.free = np.zeros((ROWS, M), dtype=bool)
         self.free[:, 2 : M - 3] = True
@@ -235,10 +237,10 @@ class TaskPlanner:
 
     def _pose_residuals(self, curves: np.ndarray, width: float) -> None:
         """Residuals at the samples and their Jacobians (free columns), into the rows after the linear ones: facing
-        (p_1 - p_0) . h(psi), h = (cos, sin, 0), then grip width |p_1 - p_0| - the goal's (a held box is not
+        (p_1 - p_0) . h(psi + facing_shift), h = (cos, sin, 0), then grip width |p_1 - p_0| - the goal's (a held box is not
         stretched). A row is weight (curves, 1, S) * basis (free columns, S)."""
         S, B, r = self.s.size, self.B_free, self._r[self.n_lin :]
-        d, psi, w = curves[3:5] - curves[0:2], curves[6], self.spec.weights.facing
+        d, psi, w = curves[3:5] - curves[0:2], curves[6] + self.facing_shift, self.spec.weights.facing
         cos, sin = h = np.array([np.cos(psi), np.sin(psi)])
         r[:S] = w * (d[0] * cos + d[1] * sin)
         self._J_face[0:2] = (-w * h)[:, None] * B
