@@ -237,8 +237,8 @@ class TaskPlanner:
 
     def _pose_residuals(self, curves: np.ndarray, width: float) -> None:
         """Residuals at the samples and their Jacobians (free columns), into the rows after the linear ones: facing
-        (p_1 - p_0) . h(psi + facing_shift), h = (cos, sin, 0), then grip width |p_1 - p_0| - the goal's (a held box is not
-        stretched). A row is weight (curves, 1, S) * basis (free columns, S)."""
+        (p_1 - p_0) . h(psi + facing_shift), h = (cos, sin, 0), then grip width |p_1 - p_0| - the goal's (a held
+        box is not stretched). A row is weight (curves, 1, S) * basis (free columns, S)."""
         S, B, r = self.s.size, self.B_free, self._r[self.n_lin :]
         d, psi, w = curves[3:5] - curves[0:2], curves[6] + self.facing_shift, self.spec.weights.facing
         cos, sin = h = np.array([np.cos(psi), np.sin(psi)])
