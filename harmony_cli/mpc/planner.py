@@ -16,9 +16,10 @@ the bounds cannot be met by the phase's end, the horizon is stretched.
 
 Global guidance: a local SQP linearised at the straight line cannot find its way round an obstacle on it (the
 distance gradient points along the path) and may pass it with the hands on opposite sides. When a phase's first
-plan fails, or misses its clearance, or has an obstacle between the hands (split around it), and when
-any later re-plan fails, the SQP runs again from the straight line moved onto the shortest planar route around the
-obstacles (plan_seed.py, route.py); that plan is taken if it succeeds and keeps its shape (status "... (route)").
+plan fails, does not converge, misses its clearance or has an obstacle between the hands (split around it), and
+when any later re-plan fails, the SQP runs again from the straight line moved onto the shortest planar route
+around the obstacles and tables, wide enough for the base (plan_seed.py, route.py); that plan is taken if it ranks
+higher (plan_checks.py; status "... (route)").
 """
 
 from __future__ import annotations
@@ -189,8 +190,9 @@ class TaskPlanner:
         return Solved(C, T, success, status + suffix, it, clearance, stretch)
 
     def _clean(self, solved: Solved) -> bool:
-        """A phase's first plan that needs no second look: converged in time, clear, hands on one side."""
-        return solved.status == "converged" and keeps_shape(solved, self.B, self.obstacles)
+        """A phase's first plan that needs no second look: converged (a stretched horizon is the rate bounds', which
+        no route changes), clear, hands on one side."""
+        return solved.status.startswith("converged") and keeps_shape(solved, self.B, self.obstacles)
 
     def _rank(self, solved: Solved) -> tuple:
         """What makes one plan better than another: success, shape kept, less stretch, converged."""
