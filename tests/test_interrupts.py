@@ -139,6 +139,7 @@ def test_the_stream_writes_once_its_interval_has_passed_and_its_reader_ignores_a
     stream.close()
 
 
+@pytest.mark.slow  # 11 s (two worker runs)
 def test_sigterm_to_compare_ends_every_worker_run_cleanly_and_exits_143(tmp_path):
     command = [str(HARMONY), "compare", str(SMOKE), "--grid", "mpc.knots=6,8", "--jobs", "2", "--out", str(tmp_path)]
     default_int = lambda: signal.signal(signal.SIGINT, signal.SIG_DFL)  # noqa: E731

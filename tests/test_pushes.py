@@ -251,6 +251,7 @@ def test_a_closed_loop_run_with_a_push_logs_it_measures_it_against_its_push_free
         assert (out / name).exists(), name
 
 
+@pytest.mark.slow  # 16 s (a compare grid of closed-loop runs)
 def test_compare_tabulates_push_metrics_per_grid_point(tmp_path):
     out = tmp_path / "cmp"
     result = runner.invoke(

@@ -92,6 +92,7 @@ def test_the_table_has_one_row_per_run_with_every_scalar_of_its_summary_and_resu
     assert (out / "report.md") in write_report(out) and "| base | 3 |" in (out / "report.md").read_text()
 
 
+@pytest.mark.slow  # 21 s (starts a local Ray)
 def test_a_local_ray_instance_gives_the_rows_of_the_process_pool(tmp_path):
     ray = pytest.importorskip("ray")
     pool = run_study(STUDY, Options(out=tmp_path / "pool", samples=4, jobs=2, progress=False, plots="none"))
