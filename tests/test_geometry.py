@@ -182,3 +182,12 @@ def test_four_table_legs_stand_on_the_floor_under_the_top_inside_its_footprint(y
         assert np.all(np.abs(in_table) <= np.array(table.top) / 2 + 1e-12)
         offsets.append((leg.centre[:2] - np.array(table.position)) @ to_table.T)
     assert {tuple(np.sign(o)) for o in offsets} == {(-1, -1), (-1, 1), (1, -1), (1, 1)}
+
+
+def test_a_box_s_plan_view_corners_lie_on_its_outline_counter_clockwise():
+    box = Shape("box", np.array([1.0, -2.0, 0.5]), 0.7, np.array([0.4, 0.25, 0.5]))
+    corners = box.corners()
+    distance, _ = box.distance(np.column_stack([corners, np.full(4, 0.5)]))
+    np.testing.assert_allclose(distance, 0.0, atol=1e-12)
+    edges = np.roll(corners, -1, axis=0) - corners
+    assert np.all(edges[:, 0] * np.roll(edges, -1, axis=0)[:, 1] - edges[:, 1] * np.roll(edges, -1, axis=0)[:, 0] > 0)

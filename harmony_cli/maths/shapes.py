@@ -32,6 +32,12 @@ class Shape:
         grow = np.full(3, radius) if self.kind == "sphere" else np.array([radius, radius, 0.0])
         return Shape(self.kind, self.centre, self.yaw, self.half + grow)
 
+    def corners(self) -> np.ndarray:
+        """A box's four corners in plan view (4, 2), counter-clockwise."""
+        c, s = np.cos(self.yaw), np.sin(self.yaw)
+        local = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * self.half[:2]
+        return self.centre[:2] + local @ np.array([[c, s], [-s, c]])
+
     def _to_local(self, points: np.ndarray) -> np.ndarray:
         c, s = np.cos(self.yaw), np.sin(self.yaw)
         d = np.atleast_2d(points) - self.centre

@@ -141,8 +141,7 @@ class TaskPlanner:
         previous = self.C if phase == self.phase else None
         fresh = previous is None
         if previous is None:  # straight line to the goal, then full SQP
-            start = np.concatenate([state.positions.ravel(), [state.heading]])
-            C = straight_line(start, np.concatenate([goal.ravel(), [heading_goal]]), self.M)
+            C = self._straight((state, goal, heading_goal))
             iterations = self.spec.phase_iterations
         else:  # the previous plan from now on (de Casteljau), re-timed to the new horizon
             tau = min(max((t - self.t_plan) / self.T_plan, 0.0), 0.99)  # np.clip costs ~4 us on a float
@@ -189,10 +188,16 @@ class TaskPlanner:
                 break
         return Solved(C, T, success, status + suffix, it, clearance, stretch)
 
+    def _straight(self, ends: Ends) -> np.ndarray:
+        """Control points from the measured hands and heading straight to the goal's."""
+        state, goal, heading_goal = ends
+        start = np.concatenate([state.positions.ravel(), [state.heading]])
+        return straight_line(start, np.concatenate([goal.ravel(), [heading_goal]]), self.M)
+
     def _clean(self, solved: Solved) -> bool:
         """A phase's first plan that needs no second look: converged (a stretched horizon is the rate bounds', which
         no route changes), clear, hands on one side."""
-        return solved.status.startswith("converged") and keeps_shape(solved, self.B, self.obstacles)
+        return _converged(solved) and keeps_shape(solved, self.B, self.obstacles)
 
     def _rank(self, solved: Solved) -> tuple:
         """What makes one plan better than another: success, shape kept, less stretch, converged."""
@@ -200,7 +205,7 @@ class TaskPlanner:
             solved.success,
             solved.success and keeps_shape(solved, self.B, self.obstacles),
             -solved.stretch,
-            solved.status == "converged",
+            _converged(solved),
         )
 
     def _on_route(self, solved: Solved, t: float, T: float, ends: Ends, carried, width: float) -> Solved:
@@ -210,8 +215,7 @@ class TaskPlanner:
         route = route_around(self.obstacles, state.positions, goal, carried, self.ground)
         if route is None or len(route.points) == 2:  # no way round, or nothing in the way: nothing to seed
             return solved
-        start = np.concatenate([state.positions.ravel(), [state.heading]])
-        C = straight_line(start, np.concatenate([goal.ravel(), [heading_goal]]), self.M)
+        C = self._straight(ends)
         self._fixed(C, state, goal, heading_goal, T)
         C = moved_onto(C, route, self.B, self.s, self.free)
         seeded = self._solve(C, t, T, ends, self.spec.phase_iterations, carried, width)
@@ -280,3 +284,8 @@ class TaskPlanner:
             bounds[:] = obstacle.clearance - dist
             margins.append(float((dist - obstacle.clearance).min()))
         return min(margins)
+
+
+def _converged(solved: Solved) -> bool:
+    """Whether the SQP converged, whatever its status says besides (a stretched horizon, a route)."""
+    return solved.status.startswith("converged")

@@ -42,10 +42,7 @@ def footprint(shape: Shape, radius: float) -> np.ndarray:
     circumscribed = _unit_ring() / np.cos(np.pi / SIDES)
     if shape.kind in ("cylinder", "sphere"):
         return shape.centre[:2] + (shape.half[0] + radius) * circumscribed
-    c, s = np.cos(shape.yaw), np.sin(shape.yaw)
-    corners = np.array([[sx * shape.half[0], sy * shape.half[1]] for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1))])
-    corners = corners @ np.array([[c, s], [-s, c]]) + shape.centre[:2]
-    return _convex_hull((corners[:, None, :] + radius * circumscribed[None]).reshape(-1, 2))
+    return _convex_hull((shape.corners()[:, None, :] + radius * circumscribed[None]).reshape(-1, 2))
 
 
 def plan_route(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray]) -> Route | None:

@@ -92,16 +92,22 @@ FAILURES: tuple[tuple[str, Callable[[dict], bool], Callable[[dict, pd.DataFrame]
 )
 
 
+def _first(task: dict) -> tuple[str, Callable[[dict, pd.DataFrame], str]] | None:
+    """The first failure that applies to a task outcome: (category, its reason), or None."""
+    return next(((name, reason) for name, applies, reason in FAILURES if applies(task)), None)
+
+
 def failure_category(task: dict) -> str:
     """The category of an unsuccessful task outcome (also of a summary.json written before reasons existed)."""
-    return next((name for name, applies, _ in FAILURES if applies(task)), "unsuccessful")
+    first = _first(task)
+    return first[0] if first else "unsuccessful"
 
 
 def task_failure(task: dict, steps: pd.DataFrame) -> dict | None:
     """{category, reason} of an unsuccessful task (None: it succeeded)."""
     if task.get("success"):
         return None
-    for name, applies, reason in FAILURES:
-        if applies(task):
-            return {"category": name, "reason": reason(task, steps)}
-    return {"category": "unsuccessful", "reason": "no criterion of success failed that harmony knows of"}
+    first = _first(task)
+    if first is None:
+        return {"category": "unsuccessful", "reason": "no criterion of success failed that harmony knows of"}
+    return {"category": first[0], "reason": first[1](task, steps)}

@@ -52,9 +52,8 @@ class Passage:
         labels, _ = ndimage.label(free, structure=np.ones((3, 3)))
         i, j = self._cell(np.atleast_2d(start))
         start_label = int(labels[i[0], j[0]])
-        self.judged = bool(start_label)  # a start where the disc does not fit is not judged (everything reaches)
-        self.reached = None
-        if self.judged:  # every cell within the disc's radius (and a cell) of the filled region
+        self.reached = None  # a start where the disc does not fit is not judged (everything reaches)
+        if start_label:  # every cell within the disc's radius (and a cell) of the filled region
             self.reached = ndimage.distance_transform_edt(labels != start_label) <= self.radius / CELL + 1
 
     def reaches(self, places: np.ndarray) -> bool:

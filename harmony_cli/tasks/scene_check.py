@@ -33,15 +33,9 @@ def planar_gap(a: Shape, b: Shape) -> float:
     return float(planar_distance(other, circle.centre[None, :2])[0] - circle.half[0])
 
 
-def _corners(box: Shape) -> np.ndarray:
-    c, s = np.cos(box.yaw), np.sin(box.yaw)
-    local = np.array([[x, y] for x in (-1, 1) for y in (-1, 1)]) * box.half[:2]
-    return box.centre[:2] + local @ np.array([[c, s], [-s, c]])
-
-
 def _box_gap(a: Shape, b: Shape) -> float:
     """Separating axes for the overlap depth; separated, the nearest pair includes a corner of one of them."""
-    ca, cb = _corners(a), _corners(b)
+    ca, cb = a.corners(), b.corners()
     depth = np.inf
     for yaw in (a.yaw, b.yaw):
         for axis in (np.array([np.cos(yaw), np.sin(yaw)]), np.array([-np.sin(yaw), np.cos(yaw)])):
