@@ -96,3 +96,31 @@ def test_squeeze_moves_the_two_goals_towards_each_other_by_the_squeeze_in_total(
 )
 def test_box_is_held_from_the_end_of_the_grasp_phase_until_a_release_phase_starts(t, held):
     assert Schedule(TASK, HANDS).holding(t) is held
+
+
+def _waited(errors: list[float], dt: float = 0.1) -> Schedule:
+    """The schedule after control steps of dt from t = 0 with the hands errors[k] from the goal at step k (the last
+    value from then on), until t = 20 s."""
+    schedule = Schedule(TASK, HANDS)
+    for k in range(int(round(20 / dt))):
+        schedule.wait(k * dt, dt, errors[min(k, len(errors) - 1)])
+    return schedule
+
+
+def test_a_phase_whose_goal_is_reached_in_time_never_waits():
+    schedule = _waited([0.5] * 10 + [0.01])  # reached at t = 1.0 s, before approach ends at 2 s
+    np.testing.assert_allclose(schedule.ends, ENDS)
+    assert schedule.delay == 0.0
+
+
+def test_a_lagging_phase_waits_until_its_goal_is_reached_and_every_later_phase_moves_with_it():
+    schedule = _waited([0.5] * 26 + [0.01])  # approach reached at t = 2.6 s: it ends at 2.7 s instead of 2
+    np.testing.assert_allclose(schedule.ends, ENDS + 0.7)
+    assert schedule.at(2.69).spec.name == "approach" and schedule.at(2.71).spec.name == "squeeze"
+    assert schedule.holding(ENDS[1] + 0.69) is False and schedule.holding(ENDS[1] + 0.71) is True
+
+
+def test_a_phase_that_never_reaches_its_goal_waits_its_own_duration_once_then_the_next_ones_wait_in_turn():
+    schedule = _waited([0.5])  # never reached: each phase but the last waits its own duration, up to t = 20 s
+    np.testing.assert_allclose(schedule.waited[:2], [2.0, 1.5])
+    assert schedule.ends[0] == pytest.approx(4.0) and schedule.waited[-1] == 0.0

@@ -287,3 +287,25 @@ def test_a_solution_s_constraint_violation_is_the_same_from_compiled_rows_and_fr
     assert compiled == pytest.approx(problem.max_violation(x, gn.p, gn.lbx, gn.ubx), rel=1e-12)  # CasADi's VM
     depth = -_footprint_margins(mpc, scenario, x).min()  # numpy geometry: the deepest circle inside the margin
     assert depth > 0.05 and compiled >= depth - 1e-9
+
+
+def test_a_plan_into_a_wall_gets_a_relaxed_step_that_leaves_no_violated_clearance_row_worse(eva):
+    # the measured base 5 cm inside the wall's margin; the warm start runs on 0.18 m per control point into it,
+    # deeper at every knot: no step meets every linearised row (they contradict), so the rows violated ask only
+    # not to get worse, and the MPC still moves instead of holding a stale plan
+    _, mpc, ref = _walled(eva, "solver.name=rti")
+    n, q = eva.n_dof, eva.home.copy()
+    q[1] = 1.9 - 0.707 / 2 - 0.05
+    x0 = np.tile(q, 6)
+    for j in range(1, 6):
+        x0[j * n : j * n + 3] += j * np.array([0.1, 0.18, 0.1])  # base x, y, yaw
+    pinned = list(eva.pinned_joints)
+    lbx, ubx = mpc.transcription.bounds(eva.lower, eva.upper, eva.velocity_limit, q, pinned, eva.home[pinned])
+    mpc.step(eva.home.copy(), ref)  # parameters (references, obstacles) in place
+    result = mpc.solver.solve(x0.copy(), lbx, ubx, mpc.params)
+    assert result.success and result.status == "rti_step (clearance relaxed)"
+    start = np.clip(x0, lbx, ubx)
+    h, lower, C = KnotConstraints(mpc.problem).evaluate(start, mpc.params)
+    violated = h < lower
+    assert violated.sum() >= 5
+    assert (C[violated] @ (result.x - start) >= -1e-9).all()

@@ -44,10 +44,10 @@ def run_loop(
     record, health) and `previous_physics_ms` (command and physics), which come after its record.
     `predict` (moving obstacles) gives the whole-body MPC the obstacles' centres at t + its knot times. `health`
     checks every step's measurement (after its record: the steps log shows what diverged) before its command."""
-    n_steps = int(round(duration / control_dt))
-    previous = {"physics_ms": 0.0, "log_ms": 0.0}  # the step before's parts that come after its record
+    n_steps = lambda: int(round((duration + references.delay) / control_dt))  # a task's waits lengthen the run
+    step, previous = 0, {"physics_ms": 0.0, "log_ms": 0.0}  # the step before's parts that come after its record
     with collector_frozen():
-        for step in range(n_steps):
+        while step < n_steps():
             t = step * control_dt
             sensed = time.perf_counter()
             obs = sim.observe()  # the MPC always starts from the measured state
@@ -62,12 +62,8 @@ def run_loop(
             end = time.perf_counter()
             truth = sim.truth()
             watched = watch(t, obs, truth) if watch else {}
-            timing = {
-                "sense_ms": 1e3 * (start - sensed),
-                "wbmpc_ms": 1e3 * (end - solve),
-                "qp_rows": result.qp_rows,
-                "qp_solves": result.qp_solves,
-            } | {f"previous_{k}": v for k, v in previous.items()}
+            timing = {"sense_ms": 1e3 * (start - sensed), "wbmpc_ms": 1e3 * (end - solve), "qp_rows": result.qp_rows}
+            timing |= {"qp_solves": result.qp_solves} | {f"previous_{k}": v for k, v in previous.items()}
             record(
                 step_record(step, t, 1e3 * (end - start), mpc, obs, targets, command, result, truth, watched | timing)
             )
@@ -82,7 +78,8 @@ def run_loop(
             sim.apply(command.q, command.qd)
             sim.step(substeps)
             previous = {"physics_ms": 1e3 * (time.perf_counter() - physics), "log_ms": 1e3 * (physics - end)}
-            on_step(step + 1, n_steps)
+            step += 1
+            on_step(step, n_steps())
 
 
 @contextmanager

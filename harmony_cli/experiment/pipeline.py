@@ -28,7 +28,7 @@ from harmony_cli.scenario import Scenario, robot_of, robot_warnings
 from harmony_cli.sim.simulation import Simulation
 from harmony_cli.sim.video import VideoRecorder, frame_every
 from harmony_cli.tasks.motion import Predictor, obstacle_predictor
-from harmony_cli.tasks.reference import HandReference, trajectory_references
+from harmony_cli.tasks.reference import HandReference, TrajectoryReferences
 from harmony_cli.tasks.scene_check import SceneCheck
 from harmony_cli.tasks.targets import References
 from harmony_cli.tasks.two_stage import TaskReferences
@@ -80,7 +80,7 @@ def build(scenario: Scenario, scenario_dir: Path) -> Built:
     if scenario.reference is None:  # validation leaves exactly one of task / reference
         raise ValueError(f"{scenario.name}: neither a task nor a reference")
     reference = HandReference(scenario.reference, robot.hand_poses_numeric(robot.home))
-    return Built(robot, mpc, sim, trajectory_references(reference), None, obstacle_predictor(scenario.world.obstacles))
+    return Built(robot, mpc, sim, TrajectoryReferences(reference), None, obstacle_predictor(scenario.world.obstacles))
 
 
 def describe(scenario: Scenario, built: Built) -> dict:

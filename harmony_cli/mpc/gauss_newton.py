@@ -100,17 +100,21 @@ class GaussNewtonSolver:
             h = vals[kept]
             h[diagonal] += self.regularisation
             bounds = h, g[free], lbx[free] - x[free], ubx[free] - x[free]
-            if isinstance(qp, ScreenedQP):
-                dz, failure, rows, solves = self._screened_step(qp, rows_from, r, x, p, free, bounds)
-            else:
-                dz, failure, rows, solves = self._sparse_step(qp, rows_from, r, x, p, bounds)
-            qp_rows, qp_solves = qp_rows + rows, qp_solves + solves
+            relaxed = False
+            for relaxed in (False, True) if self.constraints is not None else (False,):
+                if isinstance(qp, ScreenedQP):
+                    dz, failure, rows, solves = self._screened_step(qp, rows_from, r, x, p, free, bounds, relaxed)
+                else:
+                    dz, failure, rows, solves = self._sparse_step(qp, rows_from, r, x, p, bounds, relaxed)
+                qp_rows, qp_solves = qp_rows + rows, qp_solves + solves
+                if dz is not None:
+                    break
             if dz is None:
                 status, success = f"qp_failed: {failure}", False
                 break
             x[free] += dz
             if self.max_iter == 1:
-                status, success = "rti_step", True
+                status, success = "rti_step (clearance relaxed)" if relaxed else "rti_step", True
             elif np.max(np.abs(dz)) < self.tol:
                 status, success = "converged", True
                 break
@@ -129,29 +133,37 @@ class GaussNewtonSolver:
             qp_solves,
         )
 
-    def _screened_step(self, qp: ScreenedQP, A: tuple, r: Reduction, x, p, free, bounds):
+    def _screened_step(self, qp: ScreenedQP, A: tuple, r: Reduction, x, p, free, bounds, relaxed: bool = False):
         """(step or None, the solver's failure status, rows solved, QPs solved) of a dense QP over the rows that
-        can matter (mpc/row_screen.py): the same optimum as over every row."""
+        can matter (mpc/row_screen.py): the same optimum as over every row. `relaxed`: see _needs."""
         lba, uba = r.rows(self.problem.lb, self.problem.ub, x)
         rows: DenseRows | KnotRows = DenseRows(A[0])
         if self.constraints is not None:  # h + C dz >= lower
             value, lower, J = self.constraints.jacobians(x, p)
             rows = KnotRows(A[0], A[1], J, self.constraints.B[1:], free)
-            lba, uba = np.concatenate([lba, lower - value]), np.concatenate([uba, np.full(value.size, np.inf)])
+            lba, uba = np.concatenate([lba, _needs(lower - value, relaxed)]), np.r_[uba, np.full(value.size, np.inf)]
         h, g, lbx, ubx = bounds
         out = qp.solve(h, g, lbx, ubx, rows, lba, uba)
         return (out.z if out.success else None), out.status, out.rows, out.solves
 
-    def _sparse_step(self, qp: Buffered, from_c, r: Reduction, x, p, bounds):
+    def _sparse_step(self, qp: Buffered, from_c, r: Reduction, x, p, bounds, relaxed: bool = False):
         """(step or None, the solver's failure status, rows, 1) of a sparse QP over every row."""
         c_slots, c_source = from_c
         lba, uba = r.rows(self.problem.lb, self.problem.ub, x)
         if self.constraints is not None:  # h + C dz >= lower
             value, lower, qp.args["a"][c_slots] = self.constraints.evaluate_entries(x, p, c_source)
-            lba, uba = np.concatenate([lba, lower - value]), np.concatenate([uba, np.full(value.size, np.inf)])
+            lba, uba = np.concatenate([lba, _needs(lower - value, relaxed)]), np.r_[uba, np.full(value.size, np.inf)]
         h, g, lbx, ubx = bounds
         out = qp(h=h, g=g, lba=lba, uba=uba, lbx=lbx, ubx=ubx)
         stats = qp.stats()
         if not stats["success"]:
             return None, stats.get("return_status", "?"), lba.size, 1
         return out["x"], "", lba.size, 1
+
+
+def _needs(need: np.ndarray, relaxed: bool) -> np.ndarray:
+    """What the linearised clearance rows ask of a step: `need` (C dz >= need; > 0 where a row is violated now).
+    Relaxed (after the QP found no step meeting them all: the linearisations of rows violated at several knots
+    can contradict each other), a violated row asks only not to get worse; dz = 0 then meets every row, so the
+    MPC still moves the robot, on the rows' side of every tangent, instead of holding a stale plan."""
+    return np.minimum(need, 0.0) if relaxed else need

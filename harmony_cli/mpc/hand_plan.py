@@ -81,3 +81,4 @@ class Solved:
     iterations: int
     clearance: float
     stretch: float  # the horizon factor it needed (1: none)
+    base_clearance: float = np.inf  # the base footprint's smallest predicted margin [m] (soft: may be < 0)

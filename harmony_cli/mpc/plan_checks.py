@@ -1,5 +1,5 @@
 """What the planner asks of a phase's first plan before it takes it (and ranks two plans by): the hands pass
-every obstacle on one side with their clearance."""
+every obstacle on one side with their clearance; and how far a phase's goal itself lies inside a clearance."""
 
 from __future__ import annotations
 
@@ -9,15 +9,58 @@ from harmony_cli.mpc.hand_plan import Obstacle, Solved
 
 BETWEEN = np.array([0.25, 0.5, 0.75])  # fractions of the way from hand 0 to hand 1 checked for an obstacle
 CLEARANCE_SLACK = 5e-3  # [m] predicted clearance shortfall tolerated in a phase's first plan
+BASE_SLACK = 0.02  # [m] the same for the base footprint (carried as at home: the arms may make up the rest)
 
 
 def keeps_shape(solved: Solved, basis: np.ndarray, obstacles: list[Obstacle]) -> bool:
-    """Whether a plan passes every obstacle with both hands on one side: its predicted clearance is met and no
-    standing obstacle is between the hands at a sample (`basis`: (S, M); a local SQP may split them round one)."""
+    """Whether a plan passes every obstacle with both hands on one side: its predicted clearances (hands, and
+    nearly the base's) are met and no standing obstacle is between the hands at a sample (`basis`: (S, M); a
+    local SQP may split them round one)."""
     curves = solved.C[:6] @ basis.T
     hands = curves.reshape(2, 3, -1).transpose(0, 2, 1)  # (hand, sample, xyz)
     between = (hands[0] + BETWEEN[:, None, None] * (hands[1] - hands[0])).reshape(-1, 3)
     for obstacle in obstacles:
         if obstacle.motion is None and obstacle.shape.distance(between)[0].min() < 0.0:
             return False
-    return solved.clearance >= -CLEARANCE_SLACK
+    return solved.clearance >= -CLEARANCE_SLACK and solved.base_clearance >= -BASE_SLACK
+
+
+def converged(solved: Solved) -> bool:
+    """Whether the SQP converged, whatever its status says besides (a stretched horizon, a route)."""
+    return solved.status.startswith("converged")
+
+
+def is_clean(solved: Solved, basis: np.ndarray, obstacles: list[Obstacle]) -> bool:
+    """A phase's first plan that needs no second look: converged (a stretched horizon is the rate bounds', which
+    no route changes), clear (hands and base), hands on one side."""
+    return converged(solved) and keeps_shape(solved, basis, obstacles)
+
+
+def rank(solved: Solved, basis: np.ndarray, obstacles: list[Obstacle]) -> tuple:
+    """What makes one plan better than another: success, shape kept, less stretch, converged."""
+    return (
+        solved.success,
+        solved.success and keeps_shape(solved, basis, obstacles),
+        -solved.stretch,
+        converged(solved),
+    )
+
+
+GOAL_INSIDE = 5e-3  # [m] how far inside the goal's own distance a lowered clearance is kept
+
+
+def goal_reliefs(obstacles: list[Obstacle], goal: np.ndarray, end: float, carried: tuple[float, float] | None):
+    """Per obstacle, how much its clearance must drop for the phase's `goal` (2, 3) hands (and the carried object
+    between them) at time `end` to meet it, plus GOAL_INSIDE (0 where the goal is clear). An author may put a
+    goal within an obstacle's margin (the margin is a preference, the obstacle is not): the plan still ends there
+    and keeps as far away as the goal allows on its way; the whole-body MPC keeps its own margins."""
+    reliefs = np.zeros(len(obstacles))
+    for i, obstacle in enumerate(obstacles):
+        moved = 0.0 if obstacle.motion is None else obstacle.motion(np.array([end]))[0] - obstacle.shape.centre
+        margin = obstacle.shape.distance(goal - moved)[0].min() - obstacle.clearance
+        if carried is not None:
+            point = goal.mean(axis=0) - [0.0, 0.0, carried[1]]
+            distance = obstacle.shape.grown(carried[0]).distance(point[None] - moved)[0][0]
+            margin = min(margin, distance - obstacle.clearance)
+        reliefs[i] = GOAL_INSIDE - margin if margin < 0.0 else 0.0
+    return reliefs

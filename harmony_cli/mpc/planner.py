@@ -1,25 +1,22 @@
 """Task-space planner (MPC-T): both hands' paths from their measured state to the phase goal at rest.
 
-Decision variables: Bezier control points (M per curve) of hand 0's and hand 1's positions and of their common
-heading psi, a (7, M) array. The hands stay level with their pads facing each other by construction,
-R_h(t) = Rz(psi(t)) R_h(home): a heading is an SO(2) curve, so there is no quaternion to normalise, and the goal
-heading is unwrapped to the one nearest the current heading (the same hemisphere). Costs keep the inter-hand
-vector across the heading (along the pad normals) and both hands at one height, and smooth the control points.
+Decision variables: Bezier control points (M per curve) of both hands' positions and their common heading psi, a
+(7, M) array. The hands stay level with their pads facing each other by construction, R_h(t) = Rz(psi(t)) R_h(home)
+(an SO(2) curve: no quaternion to normalise; the goal heading is unwrapped to the one nearest the current one).
+Costs keep the inter-hand vector across the heading, both hands at one height and at the goal's distance apart,
+and smooth the control points. Start: control points 0 and 1 from the measured positions and velocities; end: the
+last three at the goal (at rest). Speed and acceleration bounds on the hodograph control points. Obstacles: the
+signed distance of each hand (and, while carrying, of the object between them) at sample times stays above its
+clearance, linearised at the current plan, where the obstacle is at that time. Gauss-Newton SQP over the free
+control points, one DAQP QP per iteration: `phase_iterations` at a phase change, `iterations` (1: real-time
+iteration) on every other step; the horizon is stretched when the bounds cannot be met by the phase's end.
 
-Start: control points 0 and 1 from the measured positions and velocities; end: the last three at the goal (at
-rest: zero velocity and acceleration). Speed and acceleration bounds on the hodograph control points. Obstacles:
-the signed distance of each hand (and, while carrying, of the object between them) at sample times stays above
-its clearance, linearised at the current plan, from where the obstacle is at that time (a moving one's predicted
-centre); the hands keep the goal's distance apart. Gauss-Newton SQP over the free control points, one DAQP QP per
-iteration: `phase_iterations` at a phase change, `iterations` (1: real-time iteration) on every other step. When
-the bounds cannot be met by the phase's end, the horizon is stretched.
-
-Global guidance: a local SQP linearised at the straight line cannot find its way round an obstacle on it (the
-distance gradient points along the path) and may pass it with the hands on opposite sides. When a phase's first
-plan fails, does not converge, misses its clearance or has an obstacle between the hands (split around it), and
-when any later re-plan fails, the SQP runs again from the straight line moved onto the shortest planar route
-around the obstacles and tables, wide enough for the base (plan_seed.py, route.py); that plan is taken if it ranks
-higher (plan_checks.py; status "... (route)").
+The base follows the hands: soft rows keep its footprint, carried behind the hands as at home, clear of the
+obstacles and table legs (plan_base.py). Global guidance: a local SQP linearised at the straight line cannot find
+its way round an obstacle on it (the distance gradient points along the path) and may split the hands round it.
+When a phase's first plan fails, does not converge, misses a clearance or splits the hands, and when a re-plan
+fails, the SQP runs again from the straight line moved onto the shortest planar route around the obstacles and
+tables, wide enough for the base (plan_seed.py, route.py), taken if it ranks higher (status "... (route)").
 """
 
 from __future__ import annotations
@@ -34,7 +31,8 @@ import numpy as np
 from harmony_cli.maths.bezier import bernstein_basis, difference_matrix, shift_matrix
 from harmony_cli.mpc.codegen import Buffered
 from harmony_cli.mpc.hand_plan import ROWS, Ends, HandState, Obstacle, Plan, PlannerResult, Solved
-from harmony_cli.mpc.plan_checks import keeps_shape
+from harmony_cli.mpc.plan_base import PlannedBase
+from harmony_cli.mpc.plan_checks import goal_reliefs, is_clean, rank
 from harmony_cli.mpc.plan_seed import Ground, moved_onto, route_around, straight_line
 from harmony_cli.mpc.problem import NoPlanToHold
 
@@ -54,8 +52,10 @@ class TaskPlanner:
         home_rotations: np.ndarray,
         heading_offset: float,
         ground: Ground | None = None,
+        base: PlannedBase | None = None,
     ):
         self.spec, self.obstacles, self.home_rotations, self.ground = spec, obstacles, home_rotations, ground
+        self.base = base
         self.heading_offset = heading_offset  # heading = angle(p_1 - p_0) + offset (pads face each other)
         # the pads face along h(heading + this): 0 when home faces +x, the home's own yaw when it does not
         self.facing_shift = np.pi / 2 - heading_offset
@@ -81,6 +81,7 @@ class TaskPlanner:
         self._rate_limits = np.r_[np.repeat(v, n1), np.repeat(a, n2)][self.keep]
         self._rate_order = np.r_[np.ones(ROWS * n1), 2 * np.ones(ROWS * n2)][self.keep]
         self.n_keep, self.n_lin = int(self.keep.sum()), self.J_lin.shape[0]
+        self.n_base = 0 if base is None else len(base.bodies) * s.size  # the footprint's soft rows
         self.n_points = 3  # hand 0, hand 1, the carried object (midpoint)
         n_rows = self.n_keep + len(obstacles) * self.n_points * s.size
         dense = {"h": cs.Sparsity.dense(self.n_free, self.n_free), "a": cs.Sparsity.dense(n_rows, self.n_free)}
@@ -98,11 +99,16 @@ class TaskPlanner:
         self.B_free = self.B[:, self.free[0]].T.copy()  # (free columns, S)
         self._B_hands = np.tile(self.B_free, 2)  # both hands' samples side by side
         self._hand_weights = np.repeat(np.eye(2), S, axis=1)  # a hand's gradient: 1 in its own curves' rows, 0 else
-        self._J = np.zeros((n_lin + 2 * S, self.n_free), order="F")  # vstack(...)[:, free]'s layout: same BLAS sums
+        n_rows = n_lin + 2 * S + self.n_base
+        self._J = np.zeros((n_rows, self.n_free), order="F")  # vstack(...)[:, free]'s layout: same BLAS sums
         self._J[:n_lin] = self.J_lin[:, free]
-        columns = self._J.T.reshape(ROWS, -1, n_lin + 2 * S)
-        self._J_face, self._J_width = columns[:, :, n_lin : n_lin + S], columns[:, :, n_lin + S :]
-        self._r, self._ridge = np.zeros(n_lin + 2 * S), 1e-9 * np.eye(self.n_free)
+        columns = self._J.T.reshape(ROWS, -1, n_rows)
+        self._J_face, self._J_width = columns[:, :, n_lin : n_lin + S], columns[:, :, n_lin + S : n_lin + 2 * S]
+        self._J_base = columns[:, :, n_lin + 2 * S :]
+        self._r, self._ridge = np.zeros(n_rows), 1e-9 * np.eye(self.n_free)
+        self._reliefs = np.zeros(len(self.obstacles))  # per obstacle, its clearance lowered to the goal's
+        self._base_margin = np.inf  # the footprint's smallest margin at the last linearisation
+        self._base_reliefs = np.zeros(0 if self.base is None else len(self.base.bodies))  # as the goal's (plan_base)
         self._H, rows = args["h"].reshape(self.n_free, -1).T, args["a"].reshape(self.n_free, -1)
         rows.T[: self.n_keep] = self.A[self.keep][:, free]
         self._qp_rows = rows.reshape(ROWS, -1, rows.shape[1])
@@ -148,8 +154,12 @@ class TaskPlanner:
             C = previous @ shift_matrix(self.M, tau) if tau > 0 else previous.copy()
             iterations = self.spec.iterations
         width = float(np.linalg.norm(goal[1] - goal[0]))
+        self._reliefs = goal_reliefs(self.obstacles, goal, t + T, carried)
+        if self.base is not None:
+            ends = np.stack([state.positions, goal])
+            self._base_reliefs = self.base.reliefs(ends, np.r_[state.heading, heading_goal], np.r_[t, t + T])
         solved = self._solve(C, t, T, (state, goal, heading_goal), iterations, carried, width)
-        if self.obstacles and not (solved.success and (not fresh or self._clean(solved))):
+        if self.obstacles and not (solved.success and (not fresh or is_clean(solved, self.B, self.obstacles))):
             solved = self._on_route(solved, t, T, (state, goal, heading_goal), carried, width)
         C, success, status = solved.C, solved.success, solved.status
         if success and not np.isfinite(C).all():  # NaN / inf never becomes the plan: the last one is held
@@ -186,27 +196,13 @@ class TaskPlanner:
             if np.abs(step).max() < self.spec.tol:
                 status = "converged"
                 break
-        return Solved(C, T, success, status + suffix, it, clearance, stretch)
+        return Solved(C, T, success, status + suffix, it, clearance, stretch, self._base_margin)
 
     def _straight(self, ends: Ends) -> np.ndarray:
         """Control points from the measured hands and heading straight to the goal's."""
         state, goal, heading_goal = ends
         start = np.concatenate([state.positions.ravel(), [state.heading]])
         return straight_line(start, np.concatenate([goal.ravel(), [heading_goal]]), self.M)
-
-    def _clean(self, solved: Solved) -> bool:
-        """A phase's first plan that needs no second look: converged (a stretched horizon is the rate bounds', which
-        no route changes), clear, hands on one side."""
-        return _converged(solved) and keeps_shape(solved, self.B, self.obstacles)
-
-    def _rank(self, solved: Solved) -> tuple:
-        """What makes one plan better than another: success, shape kept, less stretch, converged."""
-        return (
-            solved.success,
-            solved.success and keeps_shape(solved, self.B, self.obstacles),
-            -solved.stretch,
-            _converged(solved),
-        )
 
     def _on_route(self, solved: Solved, t: float, T: float, ends: Ends, carried, width: float) -> Solved:
         """The SQP again from the straight line moved onto a planar route around the obstacles (plan_seed.py); taken
@@ -220,7 +216,7 @@ class TaskPlanner:
         C = moved_onto(C, route, self.B, self.s, self.free)
         seeded = self._solve(C, t, T, ends, self.spec.phase_iterations, carried, width)
         seeded = replace(seeded, status=seeded.status + " (route)")
-        return seeded if self._rank(seeded) > self._rank(solved) else solved
+        return seeded if rank(seeded, self.B, self.obstacles) > rank(solved, self.B, self.obstacles) else solved
 
     def _sqp_step(self, C: np.ndarray, t: float, T: float, carried: tuple[float, float] | None, width: float):
         """One Gauss-Newton QP over the free control points of the plan over [t, t + T]: (step or None, predicted
@@ -228,6 +224,10 @@ class TaskPlanner:
         x, args = C.ravel(), self.qp.args
         curves = C @ self.B.T  # (7, S)
         self._pose_residuals(curves, width)
+        if self.base is not None:
+            w, n = self.spec.weights.base, self.n_lin + 2 * self.s.size
+            times, reliefs = t + T * self.s, self._base_reliefs
+            self._base_margin = self.base.rows(curves, times, reliefs, w, self.B_free, self._r[n:], self._J_base)
         self._r[: self.n_lin] = self.J_lin @ x
         np.add(self._J.T @ self._J, self._ridge, out=self._H)
         args["g"][:] = self._J.T @ self._r
@@ -255,7 +255,7 @@ class TaskPlanner:
         across = curves[3:6] - curves[0:3]
         length = np.maximum(np.sqrt(np.add.reduce(across * across, axis=0)), 1e-9)  # np.linalg.norm's own sum
         w = self.spec.weights.width
-        r[S:] = w * (length - width)
+        r[S : 2 * S] = w * (length - width)
         unit = across / length
         self._J_width[0:3] = (-w * unit)[:, None] * B
         self._J_width[3:6] = (w * unit)[:, None] * B
@@ -273,19 +273,15 @@ class TaskPlanner:
             dist, grad = obstacle.shape.distance((hands - moved).reshape(-1, 3))
             rows = self._qp_rows[:, :, first : first + 2 * n]
             rows[0:3], rows[3:6] = (self._hand_weights[:, None] * grad.T)[:, :, None] * self._B_hands
-            lba[first : first + 2 * n] = obstacle.clearance - dist
-            margins += map(float, (dist - obstacle.clearance).reshape(2, n).min(axis=1))
+            need = obstacle.clearance - self._reliefs[i]  # lowered where the goal itself is within it
+            lba[first : first + 2 * n] = need - dist
+            margins += map(float, (dist - need).reshape(2, n).min(axis=1))
             rows, bounds = self._qp_rows[:, :, first + 2 * n : first + 3 * n], lba[first + 2 * n : first + 3 * n]
             if carried is None:
                 rows[:], bounds[:] = 0.0, -np.inf
                 continue
             dist, grad = obstacle.shape.grown(carried[0]).distance(object_point - moved)
             rows[0:3] = rows[3:6] = (0.5 * grad.T)[:, None] * self.B_free
-            bounds[:] = obstacle.clearance - dist
-            margins.append(float((dist - obstacle.clearance).min()))
+            bounds[:] = need - dist
+            margins.append(float((dist - need).min()))
         return min(margins)
-
-
-def _converged(solved: Solved) -> bool:
-    """Whether the SQP converged, whatever its status says besides (a stretched horizon, a route)."""
-    return solved.status.startswith("converged")

@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 
 from harmony_cli.report.task_failure import fell_at, task_failure
+from harmony_cli.tasks.schedule import REACHED
 
 if TYPE_CHECKING:
     from harmony_cli.scenario import PushSpec, Scenario
@@ -46,7 +47,6 @@ def summarise(steps: pd.DataFrame, hands: list[str]) -> dict:
 
 GOAL_TOLERANCE = 0.05  # [m] box centre from its goal
 UPRIGHT_DEG = 10.0
-REACHED = 0.03  # [m] both hands this close to their phase goal: the phase is complete
 
 
 def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> dict:
@@ -78,6 +78,9 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
                 "start_s": start,
                 "completed_s": float(reached.min()) if len(reached) else None,
                 "final_goal_error_m": float(goal_error[rows].iloc[-1]) if rows.any() else None,
+                "waited_s": float(steps["delay_s"][rows].max() - steps["delay_s"][rows].min() if rows.any() else 0.0)
+                if "delay_s" in steps
+                else 0.0,
             }
         )
     out["phases"] = phases

@@ -45,6 +45,9 @@ class PlannerWeights(Strict):
     level: float = Field(1.0, ge=0, description="both hands at one height, at every control point")
     facing: float = Field(3.0, ge=0, description="inter-hand vector across the heading (pads face each other)")
     width: float = Field(3.0, ge=0, description="distance between the hands stays the goal's (grip width)")
+    base: float = Field(
+        10.0, ge=0, description="soft rows keeping the base footprint, carried behind the hands, clear [1/m]"
+    )
 
 
 class PlannerSpec(Strict):

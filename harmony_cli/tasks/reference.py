@@ -10,7 +10,7 @@ from harmony_cli.maths.rotations import rot_z
 from harmony_cli.maths.scalings import quintic
 from harmony_cli.robot.observation import Observation
 from harmony_cli.scenario.task import HoldReference
-from harmony_cli.tasks.targets import HandTargets, References
+from harmony_cli.tasks.targets import HandTargets
 
 if TYPE_CHECKING:
     from harmony_cli.scenario.task import Reference
@@ -49,11 +49,14 @@ class HandReference:
         return pos, rot
 
 
-def trajectory_references(reference: HandReference) -> References:
-    """A fixed hand trajectory (Table 1) as the loop's reference source."""
+class TrajectoryReferences:
+    """A fixed hand trajectory (Table 1) as the loop's reference source: it never waits (delay 0)."""
 
-    def targets(t: float, obs: Observation, knot_times: np.ndarray) -> HandTargets:
-        positions, rotations = reference.poses(t + knot_times)
+    delay = 0.0
+
+    def __init__(self, reference: HandReference):
+        self.reference = reference
+
+    def __call__(self, t: float, obs: Observation, knot_times: np.ndarray) -> HandTargets:
+        positions, rotations = self.reference.poses(t + knot_times)
         return HandTargets(positions, rotations, positions[0])
-
-    return targets

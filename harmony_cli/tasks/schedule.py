@@ -1,4 +1,5 @@
-"""The phase schedule: which phase runs at time t, and its hand goals (fixed when the phase starts)."""
+"""The phase schedule: which phase runs at time t, and its hand goals (fixed when the phase starts). A phase whose
+hands have not reached their goal when it would end waits for them, at most its own duration again."""
 
 from __future__ import annotations
 
@@ -9,6 +10,8 @@ import numpy as np
 from harmony_cli.maths.scalings import quintic
 from harmony_cli.scenario.models import AdmittanceSpec
 from harmony_cli.scenario.task import PhaseSpec, RelativeTarget, TaskSpec
+
+REACHED = 0.03  # [m] both hands this close to their phase goal (plus half its squeeze): the phase is complete
 
 
 @dataclass(frozen=True)
@@ -21,12 +24,14 @@ class ActivePhase:
 
 class Schedule:
     """Phases back to back from t = 0; after the last phase its goal is held. Squeeze forces go to the admittance
-    (blended in over `admittance.ramp` at a phase start) or, without it, become a position squeeze F / K per pad."""
+    (blended in over `admittance.ramp` at a phase start) or, without it, become a position squeeze F / K per pad.
+    `wait` moves a lagging phase's end (and every later one's) back; the times here are the moved ones."""
 
     def __init__(self, task: TaskSpec, hand_names: tuple[str, ...], admittance: AdmittanceSpec | None = None):
         self.phases, self.hand_names = task.phases, hand_names
         self.ends = np.cumsum([p.duration for p in task.phases])
-        self.duration = float(self.ends[-1])
+        self.duration = float(self.ends[-1])  # as written, without waits
+        self.waited = np.zeros(len(task.phases))  # [s] per phase, how long it waited for its goal
         self.admittance = admittance if admittance is not None else AdmittanceSpec()
 
     def force(self, times: np.ndarray) -> np.ndarray:
@@ -46,6 +51,25 @@ class Schedule:
         if a.enabled or not phase.force:
             return phase.squeeze
         return phase.squeeze + 2 * (a.off_squeeze if a.off_squeeze is not None else phase.force / a.stiffness)
+
+    @property
+    def delay(self) -> float:
+        """[s] how far the waits have moved the schedule's end."""
+        return float(self.waited.sum())
+
+    def wait(self, t: float, dt: float, goal_error: float) -> None:
+        """At control time t (steps of dt), with the hands `goal_error` [m] (the larger) from the phase's goal: a
+        phase about to end with its goal not reached lasts dt longer (every later phase moves with it), until it
+        has waited its own duration. A robot that lags (a detour, a base that had to go round) then still grasps
+        where the box is instead of closing on air; one that never arrives goes on as written after the wait."""
+        active = self.at(t)
+        i, phase = active.index, active.spec
+        ending = active.end - t < 1.5 * dt  # t is its last step (half a step for the sums' rounding)
+        if i == len(self.phases) - 1 or not ending or goal_error < REACHED + phase.squeeze / 2:
+            return
+        if self.waited[i] + dt <= phase.duration + 1e-9:
+            self.ends[i:] += dt
+            self.waited[i] += dt
 
     def at(self, t: float) -> ActivePhase:
         i = min(int(np.searchsorted(self.ends, t, side="right")), len(self.phases) - 1)
@@ -76,8 +100,7 @@ class Schedule:
     def holding(self, t: float) -> bool:
         """The box is held from the end of a grasp phase until a release phase starts."""
         held = False
-        for phase, end in zip(self.phases, self.ends):
-            start = end - phase.duration
+        for phase, start, end in zip(self.phases, np.r_[0.0, self.ends[:-1]], self.ends):
             if phase.release and t >= start:
                 held = False
             if phase.grasp and t >= end:

@@ -21,3 +21,8 @@ class HandTargets:
 
 class References(Protocol):
     def __call__(self, t: float, obs: Observation, knot_times: np.ndarray) -> HandTargets: ...
+
+    @property
+    def delay(self) -> float:
+        """[s] how much longer than written the run must last (a task's phases waiting for their goals)."""
+        ...

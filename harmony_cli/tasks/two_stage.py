@@ -10,8 +10,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from harmony_cli.maths.rotations import heading_of
-from harmony_cli.maths.shapes import obstacle_shape, table_shape, table_top_pose
+from harmony_cli.maths.shapes import obstacle_shape, table_legs, table_shape, table_top_pose
 from harmony_cli.mpc.hand_plan import HandState, Obstacle, PlannerResult
+from harmony_cli.mpc.plan_base import PlannedBase
 from harmony_cli.mpc.plan_seed import Ground
 from harmony_cli.mpc.planner import TaskPlanner
 from harmony_cli.robot.model import Robot
@@ -45,7 +46,9 @@ class TaskReferences:
             )  # the true motion predicts
             for o in scenario.world.obstacles
         ]
-        self.planner = TaskPlanner(scenario.planner, obstacles, self.home_rotations, offset, _ground(scenario))
+        hands = np.array([p0, p1])
+        base = _planned_base(scenario, robot.home[list(robot.base_joints)], hands)
+        self.planner = TaskPlanner(scenario.planner, obstacles, self.home_rotations, offset, _ground(scenario), base)
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
         box = scenario.world.box
         self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
@@ -56,6 +59,9 @@ class TaskReferences:
         self.step_count = 0
 
     def __call__(self, t: float, obs: Observation, knot_times: np.ndarray) -> HandTargets:
+        if self.phase is not None:  # a phase whose goal is not reached waits (schedule.py)
+            error = float(np.linalg.norm(obs.hand_positions - self.goal, axis=1).max())
+            self.schedule.wait(t, self.scenario.sim.control_dt, error)
         active = self.schedule.at(t)
         if self.phase is None or active.index != self.phase.index:
             poses = dict(self.table_poses)
@@ -63,7 +69,12 @@ class TaskReferences:
                 poses["box"] = (obs.box_position, obs.box_yaw)
             self.phase, self.goal = active, self.schedule.goal(active.spec, obs.hand_positions, poses)
         holding = self.schedule.holding(t)
-        log = {"phase": active.spec.name, "phase_index": active.index, "holding": holding}
+        log = {
+            "phase": active.spec.name,
+            "phase_index": active.index,
+            "holding": holding,
+            "delay_s": self.schedule.delay,
+        }
         # what the hands were asked to be at now (the plan restarts from the measurement)
         now = None if self.result is None else self.result.plan.sample(np.array([t]))[0][0]
         result = self.result
@@ -82,6 +93,11 @@ class TaskReferences:
         if self.schedule.admittance.enabled:
             force_ref = np.tile(self.schedule.force(t + knot_times), (len(self.schedule.hand_names), 1))
         return HandTargets(positions, rotations, positions[0] if now is None else now, force_ref, log)
+
+    @property
+    def delay(self) -> float:
+        """[s] how long the phases have waited for their goals: the run lasts this much longer."""
+        return self.schedule.delay
 
     def _replan(self, t: float, obs: Observation, active: ActivePhase, holding: bool) -> PlannerResult:
         """The planner's new plan; an exception is a failed solve that holds the last plan (none yet: raised)."""
@@ -117,3 +133,18 @@ def _ground(scenario: Scenario) -> Ground | None:
         return None
     tables = [(table_shape(t), scenario.robot.base_margin) for t in scenario.world.tables]
     return Ground(tables, 0.5 * narrowest_width(circles))
+
+
+def _planned_base(scenario: Scenario, base_pose: np.ndarray, hands: np.ndarray) -> PlannedBase | None:
+    """The footprint as the planner carries it behind the hands (None: no footprint, or nothing to clear), kept
+    clear of what the whole-body MPC keeps it clear of: every obstacle by its margin, every table leg by the base's
+    margin."""
+    circles = np.asarray(scenario.robot.footprint, dtype=float).reshape(-1, 3)
+    if len(circles) == 0:
+        return None
+    bodies = [
+        Obstacle(obstacle_shape(o), o.margin, partial(centre_at, o) if o.motion is not None else None)
+        for o in scenario.world.obstacles
+    ]
+    bodies += [Obstacle(leg, scenario.robot.base_margin) for t in scenario.world.tables for leg in table_legs(t)]
+    return PlannedBase.at_home(circles, base_pose, hands, bodies) if bodies else None

@@ -1,0 +1,114 @@
+"""The base as the task-space planner sees it: the footprint circles carried rigidly behind the hands, as they stand
+at home, turning with the plan's heading. The base follows the hands (the whole-body MPC moves both), so a plan
+whose hands pass an obstacle where the base cannot follow is a plan the whole-body MPC cannot track: it then stops
+the hands (the grip twists on a held box) or finds no feasible step. The planner keeps this footprint clear of
+the obstacles and table legs by soft rows (the arms may stretch: the true base is only near this one).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from harmony_cli.mpc.hand_plan import Obstacle
+
+
+@dataclass(frozen=True)
+class PlannedBase:
+    """`circles` (n, 3): x, y, radius in the base frame; `offsets` (n, 2): each circle's centre from the hands'
+    midpoint at home, in the base frame; `yaw_home`: the base's yaw at heading 0; `bodies`: what the footprint
+    keeps `clearance` from in plan view (obstacles with their margin, table legs with the base's)."""
+
+    circles: np.ndarray
+    offsets: np.ndarray
+    yaw_home: float
+    bodies: tuple[Obstacle, ...]
+    # the bodies as arrays (plan view), for every body at once: centres at t = 0, yaws, half sizes, round or not
+    _centres: np.ndarray = field(init=False, repr=False)
+    _yaws: np.ndarray = field(init=False, repr=False)
+    _halves: np.ndarray = field(init=False, repr=False)
+    _round: np.ndarray = field(init=False, repr=False)
+    _clearances: np.ndarray = field(init=False, repr=False)
+
+    @classmethod
+    def at_home(cls, circles: np.ndarray, base_pose: np.ndarray, hands: np.ndarray, bodies: list[Obstacle]):
+        """From the footprint, the base pose (x, y, yaw) at home and the hands (2, 3) there."""
+        c, s = np.cos(base_pose[2]), np.sin(base_pose[2])
+        d = hands[:, :2].mean(axis=0) - base_pose[:2]
+        midpoint = np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])  # in the base frame
+        return cls(circles, circles[:, :2] - midpoint, float(base_pose[2]), tuple(bodies))
+
+    def __post_init__(self):
+        shapes = [body.shape for body in self.bodies]  # in plan view: a sphere by its outline, like a cylinder
+        object.__setattr__(self, "_centres", np.array([s.centre[:2] for s in shapes]).reshape(-1, 2))
+        object.__setattr__(self, "_yaws", np.array([s.yaw for s in shapes]))
+        object.__setattr__(self, "_halves", np.array([s.half[:2] for s in shapes]).reshape(-1, 2))
+        object.__setattr__(self, "_round", np.array([s.kind != "box" for s in shapes]))
+        object.__setattr__(self, "_clearances", np.array([b.clearance for b in self.bodies]))
+
+    def margins(self, midpoints: np.ndarray, headings: np.ndarray, times: np.ndarray):
+        """Per body and sample, the smallest margin (>= 0: clear) of any circle of the footprint placed at the
+        hands' `midpoints` (S, 2) and `headings` (S,) at absolute `times` (S,); with its gradient with respect to
+        the midpoint (bodies, S, 2) and the heading (bodies, S)."""
+        yaw = self.yaw_home + headings
+        c, s = np.cos(yaw), np.sin(yaw)
+        ox, oy = self.offsets[:, 0:1], self.offsets[:, 1:2]  # (n, 1) against (S,)
+        world = np.stack([c * ox - s * oy, s * ox + c * oy], axis=-1)  # (n, S, 2) the offsets turned
+        turn = np.stack([-world[..., 1], world[..., 0]], axis=-1)  # d(world)/d(yaw)
+        centres = np.repeat(self._centres[:, None], len(times), axis=1)  # (K, S, 2) where each body is then
+        for k, body in enumerate(self.bodies):
+            if body.motion is not None:
+                centres[k] = body.motion(times)[:, :2]
+        dist, grad = _plan_distances(midpoints[None] + world, centres, self._yaws, self._halves, self._round)
+        margin = dist - self.circles[None, :, 2:3] - self._clearances[:, None, None]  # (K, n, S)
+        nearest = np.argmin(margin, axis=1)  # (K, S): the circle that matters at each sample
+        bodies, samples = np.ogrid[: len(self.bodies), : len(times)]
+        g = grad[bodies, nearest, samples]  # (K, S, 2)
+        d_psi = np.einsum("ksj,ksj->ks", g, turn[nearest, samples])
+        return margin[bodies, nearest, samples], g, d_psi
+
+    def reliefs(self, ends: np.ndarray, headings: np.ndarray, times: np.ndarray) -> np.ndarray:
+        """Per body, how far the footprint at the plan's fixed ends (the hands (2, 2, 3) now and at the goal, their
+        `headings` and `times`) is inside its clearance (0: clear): a path cannot do better than its ends, and
+        asking it to would bend the hands' path where the whole-body MPC stands the base elsewhere anyway."""
+        margins = self.margins(ends[:, :, :2].mean(axis=1), headings, times)[0]
+        return np.maximum(-margins.min(axis=1), 0.0)
+
+    def rows(self, curves, times, reliefs, weight: float, basis: np.ndarray, r, J) -> float:
+        """The planner's soft rows, in place: residuals r (bodies * S,) = weight * min(margin + relief, 0) at the
+        plan's `curves` (7, S) and their Jacobian J (7, free columns, bodies * S) over the free control points
+        (`basis`: (free columns, S)); returns the smallest margin (relieved)."""
+        margins, d_mid, d_psi = self.margins(0.5 * (curves[0:2] + curves[3:5]).T, curves[6], times)
+        margins += reliefs[:, None]
+        short = weight * (margins < 0.0)
+        r[:] = (short * margins).ravel()
+        rows = J.shape[2]
+        for curve, axis in ((0, 0), (1, 1), (3, 0), (4, 1)):  # the midpoint is half of each hand
+            J[curve] = (basis[:, None, :] * (0.5 * short * d_mid[..., axis])[None]).reshape(-1, rows)
+        J[6] = (basis[:, None, :] * (short * d_psi)[None]).reshape(-1, rows)
+        return float(margins.min(initial=np.inf))
+
+
+def _plan_distances(points, centres, yaws, halves, round_):
+    """Signed distances in plan view (K, n, S) of `points` (n, S, 2) to K bodies at `centres` (K, S, 2), turned by
+    `yaws` (K,), of half sizes `halves` (K, 2) (a round one: radius halves[:, 0]), and their gradients (K, n, S, 2):
+    Shape.distance's, for every body at once."""
+    d = points[None] - centres[:, None]  # (K, n, S, 2)
+    c, s = np.cos(yaws)[:, None, None], np.sin(yaws)[:, None, None]
+    lx, ly = c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]  # in each body's frame
+    hx, hy = halves[:, 0, None, None], halves[:, 1, None, None]
+    ex, ey = np.abs(lx) - hx, np.abs(ly) - hy
+    ox, oy = np.maximum(ex, 0.0), np.maximum(ey, 0.0)
+    outside = np.hypot(ox, oy)
+    inside = outside == 0.0
+    dist = np.where(inside, np.maximum(ex, ey), outside)
+    scale = np.where(inside, 0.0, 1.0 / np.maximum(outside, 1e-12))
+    gx = np.sign(lx) * np.where(inside, ex >= ey, ox * scale)  # inside: the nearest face's normal
+    gy = np.sign(ly) * np.where(inside, ex < ey, oy * scale)
+    radial = np.hypot(lx, ly)
+    round_ = round_[:, None, None]
+    dist = np.where(round_, radial - hx, dist)
+    gx = np.where(round_, lx / np.maximum(radial, 1e-12), gx)
+    gy = np.where(round_, ly / np.maximum(radial, 1e-12), gy)
+    return dist, np.stack([c * gx - s * gy, s * gx + c * gy], axis=-1)  # back to the world frame

@@ -1,0 +1,101 @@
+"""The base as the task-space planner sees it (footprint carried behind the hands), and goals inside a clearance."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from harmony_cli.maths.bezier import bernstein_basis
+from harmony_cli.maths.shapes import Shape
+from harmony_cli.mpc.hand_plan import HandState, Obstacle
+from harmony_cli.mpc.plan_base import PlannedBase
+from harmony_cli.mpc.planner import TaskPlanner
+from harmony_cli.scenario import PlannerSpec
+
+SPEC = PlannerSpec()
+HOME = np.stack([np.eye(3), np.eye(3)])
+OFFSET = np.pi / 2  # hand 0 at +y, hand 1 at -y: heading 0 faces +x
+START = np.array([[0.76, 0.15, 0.93], [0.76, -0.15, 0.93]])
+GOAL = START + [3.5, 0.0, 0.0]
+CIRCLES = np.array([[0.2, 0.2, 0.3], [-0.2, 0.2, 0.3], [0.2, -0.2, 0.3], [-0.2, -0.2, 0.3]])  # x, y, r (base frame)
+HAND_CLEARANCE, BASE_CLEARANCE = 0.13, 0.3
+
+
+def _cylinder(x: float, y: float, clearance: float) -> Obstacle:
+    return Obstacle(Shape("cylinder", np.array([x, y, 1.0]), 0.0, np.array([0.3, 0.3, 1.0])), clearance)
+
+
+def _base(bodies: list[Obstacle], yaw: float = 0.0) -> PlannedBase:
+    return PlannedBase.at_home(CIRCLES, np.array([0.0, 0.0, yaw]), START, bodies)
+
+
+def test_footprint_margin_jacobian_equals_finite_differences():
+    rng = np.random.default_rng(0)
+    box = Obstacle(Shape("box", np.array([0.5, -1.0, 0.5]), 0.4, np.array([0.3, 0.2, 0.5])), 0.03)
+    base = _base([_cylinder(1.0, 0.3, BASE_CLEARANCE), box], yaw=0.3)
+    M, S = 8, 10
+    s = np.linspace(0, 1, S + 1)[1:]
+    B, free = bernstein_basis(M, s), np.r_[False, False, np.ones(M - 5, bool), False, False, False]
+    C = 0.5 * rng.normal(size=(7, M)) + np.r_[1.2, 0.3, 1.2, 1.2, -0.3, 1.2, 0.0][:, None]
+
+    def rows(C):
+        r, J = np.zeros(2 * S), np.zeros((7, free.sum(), 2 * S))
+        base.rows(C @ B.T, s, np.zeros(2), 10.0, B[:, free].T.copy(), r, J)
+        return r, J
+
+    r, J = rows(C)
+    assert (r < 0).sum() >= 5  # the footprint overlaps both bodies somewhere: rows are active
+    numeric = np.zeros_like(J)
+    for curve in range(7):
+        for f, column in enumerate(np.flatnonzero(free)):
+            moved = C.copy()
+            moved[curve, column] += 1e-7
+            numeric[curve, f] = (rows(moved)[0] - r) / 1e-7
+    np.testing.assert_allclose(J, numeric, atol=1e-5)
+
+
+def test_footprint_margin_equals_the_circles_distance_to_a_cylinder_by_hand():
+    cylinder = _cylinder(0.5, 1.2, BASE_CLEARANCE)
+    base = _base([cylinder], yaw=0.4)
+    midpoints, headings = np.array([[1.0, 0.5], [-0.3, 0.2]]), np.array([0.2, -1.1])
+    margins = base.margins(midpoints, headings, np.zeros(2))[0][0]
+    rot = lambda a: np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+    hands_in_base = rot(0.4).T @ START[:, :2].mean(axis=0)  # the base stands at the origin at home
+    for midpoint, heading, margin in zip(midpoints, headings, margins):
+        rotation = rot(0.4 + heading)
+        circles = midpoint - rotation @ hands_in_base + CIRCLES[:, :2] @ rotation.T
+        by_hand = np.linalg.norm(circles - [0.5, 1.2], axis=1) - 0.3 - CIRCLES[:, 2] - BASE_CLEARANCE
+        assert abs(margin - by_hand.min()) < 1e-12
+
+
+def _plan(obstacles: list[Obstacle], base: PlannedBase | None, goal=GOAL):
+    planner = TaskPlanner(SPEC, obstacles, HOME, OFFSET, None, base)
+    return planner.step(0.0, HandState(START, np.zeros((2, 3)), 0.0), goal, 6.0, 0)
+
+
+def _footprint_margins(base: PlannedBase, result) -> np.ndarray:
+    positions, rotations = result.plan.sample(np.linspace(0.0, result.plan.horizon, 200))
+    headings = np.arctan2(rotations[:, 0, 1, 0], rotations[:, 0, 0, 0])
+    return base.margins(positions[:, :, :2].mean(axis=1), headings, np.zeros(200))[0]
+
+
+def test_plan_steps_aside_so_the_base_behind_the_hands_clears_a_cylinder_the_hands_alone_would_pass():
+    # the hands pass 5 cm clear of the cylinder; the base's circles, 0.3 m wider, would run into its margin
+    hands_only, footprint = _cylinder(2.0, 0.63, HAND_CLEARANCE), _cylinder(2.0, 0.63, BASE_CLEARANCE)
+    base = _base([footprint])
+    alone = _plan([hands_only], None)
+    guided = _plan([hands_only], base)
+    assert alone.success and guided.success
+    assert _footprint_margins(base, alone).min() < -0.3
+    assert _footprint_margins(base, guided).min() > -0.05
+    np.testing.assert_allclose(guided.plan.sample(np.array([6.0]))[0][0], GOAL, atol=1e-9)
+
+
+def test_a_goal_inside_an_obstacle_s_clearance_is_still_reached_keeping_as_far_as_the_goal_is():
+    cylinder = _cylinder(GOAL[1, 0] + 0.24, -0.15 - 0.32, HAND_CLEARANCE)  # hand 1's goal 3 cm inside the clearance
+    inside = cylinder.shape.distance(GOAL)[0].min()
+    assert HAND_CLEARANCE - 0.04 < inside < HAND_CLEARANCE - 0.02
+    result = _plan([cylinder], None)
+    assert result.success
+    positions, _ = result.plan.sample(np.linspace(0.0, result.plan.horizon, 200))
+    np.testing.assert_allclose(positions[-1], GOAL, atol=1e-9)
+    assert cylinder.shape.distance(positions.reshape(-1, 3))[0].min() > inside - 0.006
