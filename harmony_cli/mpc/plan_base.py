@@ -68,19 +68,16 @@ class PlannedBase:
         d_psi = np.einsum("ksj,ksj->ks", g, turn[nearest, samples])
         return margin[bodies, nearest, samples], g, d_psi
 
-    def reliefs(self, ends: np.ndarray, headings: np.ndarray, times: np.ndarray) -> np.ndarray:
-        """Per body, how far the footprint at the plan's fixed ends (the hands (2, 2, 3) now and at the goal, their
-        `headings` and `times`) is inside its clearance (0: clear): a path cannot do better than its ends, and
-        asking it to would bend the hands' path where the whole-body MPC stands the base elsewhere anyway."""
-        margins = self.margins(ends[:, :, :2].mean(axis=1), headings, times)[0]
-        return np.maximum(-margins.min(axis=1), 0.0)
-
-    def rows(self, curves, times, reliefs, weight: float, basis: np.ndarray, r, J) -> float:
-        """The planner's soft rows, in place: residuals r (bodies * S,) = weight * min(margin + relief, 0) at the
-        plan's `curves` (7, S) and their Jacobian J (7, free columns, bodies * S) over the free control points
-        (`basis`: (free columns, S)); returns the smallest margin (relieved)."""
+    def rows(self, curves, times, weight: float, basis: np.ndarray, r, J) -> float:
+        """The planner's soft rows, in place, at the plan's `curves` (7, 1 + S): its fixed start (s = 0), then its
+        S samples (the last is its fixed goal) at absolute `times` (1 + S,): residuals r (bodies * S,) = weight *
+        min(margin + relief, 0) and their Jacobian J (7, free columns, bodies * S) over the free control points
+        (`basis`: (free columns, S)); returns the smallest margin (relieved). A body's relief is how far the
+        footprint at either fixed end is inside its clearance: a path cannot do better than its ends, and asking
+        it to would bend the hands' path where the whole-body MPC stands the base elsewhere anyway."""
         margins, d_mid, d_psi = self.margins(0.5 * (curves[0:2] + curves[3:5]).T, curves[6], times)
-        margins += reliefs[:, None]
+        reliefs = np.maximum(-np.minimum(margins[:, 0], margins[:, -1]), 0.0)
+        margins, d_mid, d_psi = margins[:, 1:] + reliefs[:, None], d_mid[:, 1:], d_psi[:, 1:]
         short = weight * (margins < 0.0)
         r[:] = (short * margins).ravel()
         rows = J.shape[2]

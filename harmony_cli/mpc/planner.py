@@ -108,7 +108,7 @@ class TaskPlanner:
         self._r, self._ridge = np.zeros(n_rows), 1e-9 * np.eye(self.n_free)
         self._reliefs = np.zeros(len(self.obstacles))  # per obstacle, its clearance lowered to the goal's
         self._base_margin = np.inf  # the footprint's smallest margin at the last linearisation
-        self._base_reliefs = np.zeros(0 if self.base is None else len(self.base.bodies))  # as the goal's (plan_base)
+        self._relief_key: tuple | None = None
         self._H, rows = args["h"].reshape(self.n_free, -1).T, args["a"].reshape(self.n_free, -1)
         rows.T[: self.n_keep] = self.A[self.keep][:, free]
         self._qp_rows = rows.reshape(ROWS, -1, rows.shape[1])
@@ -154,10 +154,9 @@ class TaskPlanner:
             C = previous @ shift_matrix(self.M, tau) if tau > 0 else previous.copy()
             iterations = self.spec.iterations
         width = float(np.linalg.norm(goal[1] - goal[0]))
-        self._reliefs = goal_reliefs(self.obstacles, goal, t + T, carried)
-        if self.base is not None:
-            ends = np.stack([state.positions, goal])
-            self._base_reliefs = self.base.reliefs(ends, np.r_[state.heading, heading_goal], np.r_[t, t + T])
+        key = (phase, carried is None, goal.tobytes())  # the goal's reliefs: once a phase (and once held)
+        if key != self._relief_key:
+            self._reliefs, self._relief_key = goal_reliefs(self.obstacles, goal, t + T, carried), key
         solved = self._solve(C, t, T, (state, goal, heading_goal), iterations, carried, width)
         if self.obstacles and not (solved.success and (not fresh or is_clean(solved, self.B, self.obstacles))):
             solved = self._on_route(solved, t, T, (state, goal, heading_goal), carried, width)
@@ -226,8 +225,8 @@ class TaskPlanner:
         self._pose_residuals(curves, width)
         if self.base is not None:
             w, n = self.spec.weights.base, self.n_lin + 2 * self.s.size
-            times, reliefs = t + T * self.s, self._base_reliefs
-            self._base_margin = self.base.rows(curves, times, reliefs, w, self.B_free, self._r[n:], self._J_base)
+            ends_too, times = np.column_stack([C[:, 0], curves]), t + T * np.r_[0.0, self.s]  # its start, then samples
+            self._base_margin = self.base.rows(ends_too, times, w, self.B_free, self._r[n:], self._J_base)
         self._r[: self.n_lin] = self.J_lin @ x
         np.add(self._J.T @ self._J, self._ridge, out=self._H)
         args["g"][:] = self._J.T @ self._r
