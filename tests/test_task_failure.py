@@ -86,3 +86,17 @@ def test_a_box_task_that_missed_a_phase_goal_and_its_box_goal_is_reported_off_go
     # flagged as dropped only after the fall (contact lost for DROP_AFTER): the fall alone
     late = fell | {"box_fell_s": steps["t"][1]}
     assert task_failure(late, steps)["reason"].startswith("the box fell off the tables while held at t = 0.02 s")
+
+
+def test_a_phase_that_waited_for_its_goal_in_vain_is_named_after_the_reason():
+    """A box off its goal after the carry waited its whole duration for its goal: the reason says both."""
+    steps = _steps([1.165] * 3, [True] * 3)
+    phases = [{"name": "lift", "start_s": 0.0, "completed_s": 1.0, "final_goal_error_m": 0.01, "waited_s": 0.0}]
+    phases.append({"name": "carry", "start_s": 1.0, "completed_s": None, "final_goal_error_m": 0.43, "waited_s": 12.0})
+    task = {"success": False, "box_dropped": False, "clear_of_obstacles": True, "box_upright": True}
+    failure = task_failure(task | {"phases": phases, "box_goal_error_m": 0.5}, steps)
+    assert failure["category"] == "box off goal"
+    assert failure["reason"] == (
+        "the box ended 50.0 cm from its goal; before that, phase carry timed out: its goal not reached after "
+        "waiting 12.0 s (the hands 0.43 m from it)"
+    )

@@ -3,7 +3,7 @@ table and its task outcome (summary.json `task`), so nobody has to dig it out of
 
 Categories, the first that applies: dropped (the box left the hands while held, or fell off the tables), collision,
 box tipped, box off goal, then (a task without a box: every phase must reach its goal) phase timeout, and solver
-failures."""
+failures. A phase that waited for its goal and never reached it (tasks/schedule.py) is named after the reason."""
 
 from __future__ import annotations
 
@@ -110,4 +110,16 @@ def task_failure(task: dict, steps: pd.DataFrame) -> dict | None:
     first = _first(task)
     if first is None:
         return {"category": "unsuccessful", "reason": "no criterion of success failed that harmony knows of"}
-    return {"category": first[0], "reason": first[1](task, steps)}
+    return {"category": first[0], "reason": first[1](task, steps) + _timed_out(task)}
+
+
+def _timed_out(task: dict) -> str:
+    """The first phase that waited for its goal and never reached it (what usually came first), or ''."""
+    phase = next((p for p in task.get("phases", []) if p.get("waited_s") and p.get("completed_s") is None), None)
+    if phase is None:
+        return ""
+    away = f"{phase['final_goal_error_m']:.2f} m" if phase.get("final_goal_error_m") is not None else "?"
+    return (
+        f"; before that, phase {phase['name']} timed out: its goal not reached after waiting {phase['waited_s']:.1f} s"
+        f" (the hands {away} from it)"
+    )
