@@ -58,7 +58,7 @@ def test_served_page_draws_the_robot_at_its_base_and_the_timeline_moves_it(fast_
         with page() as browser:
             browser.goto(replay.url)
             browser.wait_for_selector("canvas", timeout=60_000)
-            browser.wait_for_timeout(2_000)  # meshes and the first frame
+            browser.wait_for_timeout(500)  # the meshes (the screenshot waits for a frame)
             first = shot(browser, tmp_path / "first.png")
             replay.slider.value = last
             browser.wait_for_timeout(1_000)
