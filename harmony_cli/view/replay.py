@@ -20,22 +20,25 @@ EXPORT_FPS = 10.0  # frames per simulated second in an exported replay
 SERIES_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728")
 
 
-def camera_for(run: RunData) -> tuple[np.ndarray, np.ndarray]:
-    """A 3/4 view (position, look-at) that frames the base's whole path."""
+def camera_for(run: RunData, step: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """A 3/4 view (position, look-at) that frames the base's whole path, or the robot at `step`."""
     x, y = run.column("q_base_x", 0.0), run.column("q_base_y", 0.0)
+    if step is not None:
+        x, y = x[step : step + 1], y[step : step + 1]
     centre = np.array([np.nanmean(x), np.nanmean(y), 0.6])
     reach = max(2.5, 1.2 * float(np.nanmax(np.hypot(x - centre[0], y - centre[1]))) + 2.0)
     return centre + reach * np.array([-0.8, -1.0, 0.7]), centre
 
 
 class Replay:
-    """A viser server showing `runs` (the first's timeline drives them all, by time)."""
+    """A viser server showing `runs` (the first's timeline drives them all, by time); the camera frames the first
+    run's whole path, or its robot at `step`."""
 
-    def __init__(self, runs: list[RunData], port: int = 8080, host: str = "127.0.0.1"):
+    def __init__(self, runs: list[RunData], port: int = 8080, host: str = "127.0.0.1", step: int | None = None):
         self.runs = runs
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.server.scene.set_up_direction("+z")
-        position, look_at = camera_for(runs[0])
+        position, look_at = camera_for(runs[0], step)
         self.server.initial_camera.position, self.server.initial_camera.look_at = position, look_at
         self.server.scene.add_grid("/ground", width=20, height=20, cell_size=0.5, position=(0, 0, 0))
         self.scenes = [RunScene(self.server, run, k) for k, run in enumerate(runs)]
@@ -73,7 +76,8 @@ class Replay:
             uplot.Series(label=c, stroke=SERIES_COLOURS[j % len(SERIES_COLOURS)], width=1.5)
             for j, c in enumerate(columns)
         )
-        return self.server.gui.add_uplot(data, series, title=title, aspect=2.0)
+        scales = {"x": uplot.Scale(time=False)}  # seconds from the start, not dates
+        return self.server.gui.add_uplot(data, series, title=title, scales=scales, aspect=2.0)
 
     def show(self, i: int) -> None:
         """Every run at the first run's time of step i; the phase, and the plots' cursor."""

@@ -128,13 +128,30 @@ class RunScene:
         )
 
     def _forces(self, row) -> None:
-        """Each wrist's sensed force (grasp frame, rotated to the world) as an arrow from its hand."""
+        """Each wrist's sensed force (grasp frame, rotated to the world) from its hand, and each push acting now
+        (its world force, ending at the pushed body), as arrows."""
         arrows = []
         for hand, link in zip(self.run.hands, self.grasp):
             force = np.array([row.get(f"{hand}_force_{a}_N", np.nan) for a in "xyz"], dtype=float)
-            if not np.isfinite(force).all() or np.linalg.norm(force) < 1.0:
-                continue
-            pose = self.urdf.get_transform(link)
-            arrows.append([pose[:3, 3], pose[:3, 3] + FORCE_SCALE * (pose[:3, :3] @ force)])
+            if np.isfinite(force).all() and np.linalg.norm(force) >= 1.0:
+                pose = self.urdf.get_transform(link)
+                arrows.append([pose[:3, 3], pose[:3, 3] + FORCE_SCALE * (pose[:3, :3] @ force)])
+        for push in self.run.scenario.pushes:
+            if abs(row.get(f"push_{push.name}_N", 0.0)) > 0:
+                at = self._pushed_point(push)
+                arrows.append([at - FORCE_SCALE * np.asarray(push.force), at])
         points = np.array(arrows) if arrows else np.zeros((0, 2, 3))
-        self.server.scene.add_line_segments(f"{self.root}/forces", points, FORCE, thickness=0.015)
+        self.server.scene.add_arrows(
+            f"{self.root}/forces", points, FORCE, shaft_radius=0.012, head_radius=0.03, head_length=0.06
+        )
+
+    def _pushed_point(self, push) -> np.ndarray:
+        """Where a push acts: its robot link's origin (the base's when none), the box's or the obstacle's centre."""
+        if push.body == "robot":
+            yaw = self.run.scenario.robot.base_joints[2]
+            link = push.link or self.urdf.joint_map[yaw].child  # the base: the link its yaw joint moves
+            return self.urdf.get_transform(link)[:3, 3]
+        if push.body == "box" and self.box is not None:
+            return np.asarray(self.box.position)
+        handle = self.obstacles.get(push.body)
+        return np.zeros(3) if handle is None else np.asarray(handle.position)
