@@ -4,6 +4,7 @@ timeline), its self-contained export opened offline, its video rendered after th
 from __future__ import annotations
 
 import shutil
+import time
 
 import numpy as np
 import pytest
@@ -46,6 +47,17 @@ def base_pixel(run, i: int, camera) -> np.ndarray:
     return project([steps["q_base_x"].iloc[i], steps["q_base_y"].iloc[i], BASE_HEIGHT], *camera)
 
 
+def settled(browser, path, ready, seconds: float = 40.0) -> np.ndarray:
+    """Screenshots until `ready(image)` (the page loads meshes and fades them in at its own pace), at most
+    `seconds`; the last one."""
+    deadline = time.monotonic() + seconds
+    image = shot(browser, path)
+    while not ready(image) and time.monotonic() < deadline:
+        browser.wait_for_timeout(250)
+        image = shot(browser, path)
+    return image
+
+
 def test_served_page_draws_the_robot_at_its_base_and_the_timeline_moves_it(fast_run, tmp_path):
     """The served page draws the robot where the log puts its base, and moving the timeline moves it there."""
     require_chromium()
@@ -54,19 +66,17 @@ def test_served_page_draws_the_robot_at_its_base_and_the_timeline_moves_it(fast_
 
     runs = load_runs([fast_run])
     replay, camera, last = Replay(runs, port=8123), camera_for(runs[0]), len(runs[0].times) - 1
+    start, end = base_pixel(runs[0], 0, camera), base_pixel(runs[0], last, camera)
     try:
         with page() as browser:
             browser.goto(replay.url)
             browser.wait_for_selector("canvas", timeout=60_000)
-            browser.wait_for_timeout(500)  # the meshes (the screenshot waits for a frame)
-            first = shot(browser, tmp_path / "first.png")
+            first = settled(browser, tmp_path / "first.png", lambda image: near(robot_pixels(image), start) > 0.5)
             replay.slider.value = last
-            browser.wait_for_timeout(1_000)
-            moved = shot(browser, tmp_path / "last.png")
+            moved = settled(browser, tmp_path / "last.png", lambda image: near(robot_pixels(image), end) > 0.5)
     finally:
         replay.close()
     assert first.std() > 20, "blank page"
-    start, end = base_pixel(runs[0], 0, camera), base_pixel(runs[0], last, camera)
     assert near(robot_pixels(first), start) > 0.5 and near(robot_pixels(moved), end) > 0.5
     shift = np.argwhere(robot_pixels(moved))[:, ::-1].mean(0) - np.argwhere(robot_pixels(first))[:, ::-1].mean(0)
     expected = end - start

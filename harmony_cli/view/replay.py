@@ -22,7 +22,7 @@ SERIES_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728")
 
 def camera_for(run: RunData, step: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """A 3/4 view (position, look-at) that frames the base's whole path, or the robot at `step`."""
-    x, y = run.column("q_base_x", 0.0), run.column("q_base_y", 0.0)
+    x, y = run.base_xy()
     if step is not None:
         x, y = x[step : step + 1], y[step : step + 1]
     centre = np.array([np.nanmean(x), np.nanmean(y), 0.6])

@@ -43,6 +43,11 @@ class RunData:
         row = self.steps.iloc[i]
         return {c[2:]: float(row[c]) for c in self.steps.columns if c.startswith("q_")}
 
+    def base_xy(self) -> tuple[np.ndarray, np.ndarray]:
+        """The base's logged x and y per step (its planar joints, by the scenario's names)."""
+        x, y = self.scenario.robot.base_joints[:2]
+        return self.column(f"q_{x}", 0.0), self.column(f"q_{y}", 0.0)
+
     def column(self, name: str, default: float = np.nan) -> np.ndarray:
         return self.steps[name].to_numpy(dtype=float) if name in self.steps else np.full(len(self.steps), default)
 

@@ -28,7 +28,7 @@ def render_video(run: RunData, path: Path, fps: float = FPS, size: tuple[int, in
         body = client.loadURDF(str(run.urdf), useFixedBase=True)
         joints = {client.getJointInfo(body, j)[1].decode(): j for j in range(client.getNumJoints(body))}
         world = World(client, run.scenario.world)
-        x, y = run.column("q_base_x", 0.0), run.column("q_base_y", 0.0)
+        x, y = run.base_xy()
         box_pose = run.arrays.get("box_pose")
         dt = float(np.median(np.diff(run.times))) if len(run.times) > 1 else run.scenario.sim.control_dt
         shown = [0]  # the step being drawn: the camera follows its base
