@@ -1,6 +1,6 @@
 """One run drawn in a viser scene under /run<k>: the robot from its URDF meshes, tables, box and obstacles, the
 reference and measured hand paths (whole run), and at the shown step the planner's plan, the whole-body MPC's
-knots and the wrist forces. `show(i)` moves everything to step i; the first run keeps the URDF's colours, the
+knots, the wrist and push forces. `show(i)` moves everything to step i; the first run keeps the URDF's colours, the
 others are tinted and translucent so overlaid runs tell apart."""
 
 from __future__ import annotations
@@ -57,7 +57,9 @@ class RunScene:
         self.box = None
         if world.box is not None:
             b = world.box
-            self.box = s.add_box(f"{root}/box", (215, 150, 75), b.size, opacity=self.opacity, position=b.position)
+            self.box = s.add_box(
+                f"{root}/box", (215, 150, 75), b.size, opacity=self.opacity, position=b.position, wxyz=_wxyz(b.yaw_deg)
+            )
         self.obstacles: dict[str, viser.SceneNodeHandle] = {}
         for o in world.obstacles:
             name, colour, at, alpha = f"{root}/obstacles/{o.name}", (180, 50, 50), o.position, self.opacity
