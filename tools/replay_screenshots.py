@@ -7,6 +7,7 @@ headless Chromium (Debian's, driven by Playwright) shows.
 from __future__ import annotations
 
 import argparse
+import time
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +32,17 @@ def pick_step(steps, phase: str | None, push: bool, step: int | None) -> int:
     return 0
 
 
+def still(page, out: Path, seconds: float = 60.0) -> None:
+    """Screenshots a second apart until two are the same (objects fade in at the page's pace), at most `seconds`."""
+    last, deadline = b"", time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        page.wait_for_timeout(1_000)
+        image = page.screenshot(path=str(out))
+        if image == last:
+            return
+        last = image
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("out", type=Path)
@@ -50,8 +62,7 @@ def main() -> None:
             page.goto(replay.url)
             page.wait_for_selector("canvas", timeout=60_000)
             page.add_style_tag(content='[class*="Notification"] { display: none !important; }')  # software WebGL
-            page.wait_for_timeout(8_000)  # objects fade in
-            page.screenshot(path=str(args.out))
+            still(page, args.out)
             browser.close()
     finally:
         replay.close()

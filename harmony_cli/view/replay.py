@@ -87,6 +87,9 @@ class Replay:
         steps = self.runs[0].steps
         phase = steps["phase"].iloc[i] if "phase" in steps else ""
         self.phase.content = f"t = {t:.2f} s &nbsp; step {i}" + (f" &nbsp; phase **{phase}**" if phase else "")
+        x, y = self.runs[0].base_xy()
+        label = f"{t:.1f} s" + (f"  {phase}" if phase else "")  # in the scene too: an export keeps it
+        self.server.scene.add_label("/phase", label, position=(float(x[i]), float(y[i]), 2.0))
 
     def play(self, stop: threading.Event) -> None:
         """Advance the slider while `play` is ticked, at the chosen speed, until `stop`."""
