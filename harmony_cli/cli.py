@@ -11,6 +11,7 @@ import typer
 from pydantic import ValidationError
 
 from harmony_cli.commands.study import study
+from harmony_cli.commands.view import view
 from harmony_cli.console import fail, literal, say, warn
 from harmony_cli.scenario import Scenario, ScenarioError, load_scenario, robot_warnings
 
@@ -284,3 +285,4 @@ def summarise(run_dir: Path):
 
 
 app.command()(study)
+app.command()(view)

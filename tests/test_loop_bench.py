@@ -10,13 +10,16 @@ from harmony_cli.experiment.loop_bench import run_loop_bench
 
 
 def test_loop_bench_reports_tails_and_real_time_factor_and_shows_the_last_bench_beside(tmp_path):
-    """Every part of a step gets median <= p99 <= max; the real-time factor is simulated over wall time; a second
-    bench on this machine prints the first one's numbers beside its own."""
+    """Every part of a step gets median <= p99 <= max (the replay log's also as % of the loop median); the real-time
+    factor is simulated over wall time; a second bench on this machine prints the first one's numbers beside its
+    own."""
     out = tmp_path / "loop.json"
     first = run_loop_bench([SMOKE], out, Console(file=io.StringIO()))["experiments"][0]
-    assert {"loop (planner + whole-body MPC)", "sensing", "whole-body MPC", "logging", "physics"} <= set(
+    assert {"loop (planner + whole-body MPC)", "sensing", "whole-body MPC", "logging", "replay log", "physics"} <= set(
         first["parts_ms"]
     )
+    cost = first["replay_log_pct_of_loop_median"]  # replay.npz's logging, as % of the loop median
+    assert 0 < cost["median"] <= cost["p95"] <= cost["max"]
     for stats in first["parts_ms"].values():
         assert 0 < stats["median"] <= stats["p99"] <= stats["p99.9"] <= stats["max"]
     simulated = first["steps"] * 0.02  # the smoke scenario's control period
@@ -24,4 +27,4 @@ def test_loop_bench_reports_tails_and_real_time_factor_and_shows_the_last_bench_
     assert json.loads(out.read_text())["experiments"][0]["name"] == first["name"]
     printed = io.StringIO()
     run_loop_bench([SMOKE], out, Console(file=printed, width=200))
-    assert "last bench" in printed.getvalue()
+    assert "last bench" in printed.getvalue() and "replay log (replay.npz) per step" in printed.getvalue()

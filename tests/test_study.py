@@ -172,3 +172,23 @@ def test_sigterm_to_a_study_ends_its_runs_cleanly_keeps_the_table_and_a_rerun_is
     again = plan_study(path, Options(out=out, progress=False))  # started again: nothing to run unasked
     assert len(again.runs) == 2 and again.todo == []
     assert len(plan_study(path, Options(out=out, progress=False, rerun=("interrupted",))).todo) == 2
+
+
+def test_the_report_gives_each_run_that_did_not_succeed_its_replay_command(tmp_path):
+    """report.md lists every run that did not succeed with `harmony view <its run directory>`, and no other."""
+    table = pd.DataFrame(
+        {
+            "point": ["base"] * 3,
+            "sample": [0, 1, 2],
+            "success": [True, False, None],
+            "outcome": ["success", "dropped", "interrupted"],
+            "reason": ["", "the box fell", "SIGTERM"],
+            "resamples": [0, 0, 0],
+            "run_dir": [str(tmp_path / f"runs/s{i}") for i in range(3)],
+        }
+    )
+    table.to_parquet(tmp_path / TABLE)
+    write_report(tmp_path)
+    report = (tmp_path / "report.md").read_text()
+    assert f"`harmony view {tmp_path / 'runs/s1'}`" in report and f"`harmony view {tmp_path / 'runs/s2'}`" in report
+    assert f"harmony view {tmp_path / 'runs/s0'}`" not in report

@@ -11,13 +11,14 @@ import numpy as np
 
 from harmony_cli.experiment.faults import RunFault
 from harmony_cli.experiment.health import Health
+from harmony_cli.experiment.replay_log import ReplayLog
 from harmony_cli.experiment.step_log import step_record
 from harmony_cli.mpc.knot_params import hand_rows
-from harmony_cli.mpc.wholebody import WholeBodyMPC
+from harmony_cli.mpc.wholebody import Command, WholeBodyMPC
 from harmony_cli.robot.observation import Observation
 from harmony_cli.sim.simulation import Simulation, Truth
 from harmony_cli.tasks.motion import Predictor
-from harmony_cli.tasks.targets import References
+from harmony_cli.tasks.targets import HandTargets, References
 
 Watch = Callable[[float, Observation, Truth], dict]  # logged fields from ground truth (e.g. the box: dropped?)
 FREEZE_EVERY = 50  # steps between moving what survived (the records) out of the garbage collector's scans
@@ -35,6 +36,7 @@ def run_loop(
     watch: Watch | None = None,
     predict: Predictor | None = None,
     health: Health | None = None,
+    replay: ReplayLog | None = None,
 ) -> None:
     """Run the whole scenario; every step's record goes to `record` as soon as it exists (nothing is lost).
 
@@ -43,9 +45,10 @@ def run_loop(
     `planner_ms` (if any), `wbmpc_ms`, `qp_rows`, `qp_solves`, and the step before's `previous_log_ms` (truth,
     record, health) and `previous_physics_ms` (command and physics), which come after its record.
     `predict` (moving obstacles) gives the whole-body MPC the obstacles' centres at t + its knot times. `health`
-    checks every step's measurement (after its record: the steps log shows what diverged) before its command."""
+    checks every step's measurement (after its record: the steps log shows what diverged) before its command.
+    `replay` gets the knots and the plan (replay.npz); its time is the next record's `previous_replay_ms`."""
     n_steps = lambda: int(round((duration + references.delay) / control_dt))  # a task's waits lengthen the run
-    step, previous = 0, {"physics_ms": 0.0, "log_ms": 0.0}  # the step before's parts that come after its record
+    step, previous = 0, {"physics_ms": 0.0, "log_ms": 0.0, "replay_ms": 0.0}  # the step before's, after its record
     with collector_frozen():
         while step < n_steps():
             t = step * control_dt
@@ -67,19 +70,42 @@ def run_loop(
             record(
                 step_record(step, t, 1e3 * (end - start), mpc, obs, targets, command, result, truth, watched | timing)
             )
+            replay_ms = _log_replay(replay, mpc, targets, references, truth)
             if health is not None:
                 health.check(t, obs.q, obs.hand_positions, targets.now)
-            if not (np.isfinite(command.q).all() and np.isfinite(command.qd).all()):  # never sent to the simulator
-                raise RunFault("solver", f"a non-finite command at t = {t:.2f} s (whole-body MPC: {result.status})")
-            if step % FREEZE_EVERY == FREEZE_EVERY - 1:  # young garbage collected, the records kept out of later scans
-                gc.collect(1)
-                gc.freeze()
+            _check_finite(command, t, result.status)
+            _freeze_survivors(step)
             physics = time.perf_counter()
             sim.apply(command.q, command.qd)
             sim.step(substeps)
-            previous = {"physics_ms": 1e3 * (time.perf_counter() - physics), "log_ms": 1e3 * (physics - end)}
+            physics_ms, log_ms = 1e3 * (time.perf_counter() - physics), 1e3 * (physics - end) - replay_ms
+            previous = {"physics_ms": physics_ms, "log_ms": log_ms, "replay_ms": replay_ms}
             step += 1
             on_step(step, n_steps())
+
+
+def _log_replay(
+    replay: ReplayLog | None, mpc: WholeBodyMPC, targets: HandTargets, references: References, truth: Truth
+) -> float:
+    """The step's knots and plan into `replay`; the time it took [ms]."""
+    if replay is None:
+        return 0.0
+    start = time.perf_counter()
+    replay.add(mpc, targets, getattr(getattr(references, "result", None), "plan", None), truth)
+    return 1e3 * (time.perf_counter() - start)
+
+
+def _freeze_survivors(step: int) -> None:
+    """Every FREEZE_EVERY steps: young garbage collected, the records kept out of later scans."""
+    if step % FREEZE_EVERY == FREEZE_EVERY - 1:
+        gc.collect(1)
+        gc.freeze()
+
+
+def _check_finite(command: Command, t: float, status: str) -> None:
+    """A non-finite command is never sent to the simulator."""
+    if not (np.isfinite(command.q).all() and np.isfinite(command.qd).all()):
+        raise RunFault("solver", f"a non-finite command at t = {t:.2f} s (whole-body MPC: {status})")
 
 
 @contextmanager

@@ -50,7 +50,16 @@ def time_experiment(path: Path) -> dict:
         "real_time_factor": simulated / wall,
         "success": summary.get("task", {}).get("success"),
         "parts_ms": {label: tail_stats(steps[column]) for column, label in PARTS.items() if column in steps},
-    }
+    } | replay_cost(steps)
+
+
+def replay_cost(steps) -> dict:
+    """replay.npz's per-step logging (median / p95 / max) as % of the loop's median (observation to command)."""
+    if "previous_replay_ms" not in steps:
+        return {}
+    loop = float(np.median(steps["loop_ms"]))
+    stats = tail_stats(steps["previous_replay_ms"].iloc[1:])  # the first row has no step before
+    return {"replay_log_pct_of_loop_median": {k: 100 * stats[k] / loop for k in ("median", "p95", "max")}}
 
 
 def _previous(out: Path | None, meta: dict) -> dict[str, dict]:
@@ -95,6 +104,11 @@ def run_loop_bench(paths: list[Path], out: Path | None = None, console: Console 
         for label, stats in report["parts_ms"].items():
             table.add_row(*_row(label, stats, before["parts_ms"].get(label) if before else None))
         console.print(table)
+        if cost := report.get("replay_log_pct_of_loop_median"):
+            console.print(
+                "replay log (replay.npz) per step, % of the loop median: "
+                + ", ".join(f"{k} {v:.2f} %" for k, v in cost.items())
+            )
     console.print(f"{meta['cpu']}, {meta['cores']} cores, git {meta['git_sha']}")
     result = {"meta": meta, "experiments": experiments}
     if out:

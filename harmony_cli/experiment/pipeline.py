@@ -18,6 +18,7 @@ from harmony_cli.experiment.faults import HeldPlans, RunFault, Writes, failed, f
 from harmony_cli.experiment.health import Health, check_start
 from harmony_cli.experiment.interrupts import RunInterrupted, interrupted_summary, signals_end_the_run
 from harmony_cli.experiment.loop import Watch, run_loop
+from harmony_cli.experiment.replay_log import ReplayLog
 from harmony_cli.experiment.results import RunRecord, finish_run
 from harmony_cli.experiment.run_dir import machine_meta
 from harmony_cli.experiment.stream import STREAM, StepStream
@@ -115,6 +116,7 @@ def simulate(
     log: IO[str],
     recorder: VideoRecorder | None,
     progress: bool,
+    replay: ReplayLog | None = None,
 ) -> float:
     """The closed loop, every step's record appended to `rows` and streamed to steps.jsonl as it exists; returns
     the wall time [s]."""
@@ -156,6 +158,7 @@ def simulate(
             built.watch,
             built.predict,
             Health(built.robot, sim.control_dt),
+            replay,
         )
     return time.perf_counter() - start
 
@@ -188,6 +191,7 @@ def execute(
     meta = machine_meta(concurrency) | {"seed": scenario.seed}
     summary: dict = {"name": scenario.name, "status": "running"} | ({"push_free_twin": twin_info} if twin_info else {})
     rows: list[dict] = []
+    replay = ReplayLog()
     built, recorder, writes = None, None, Writes(out, summary)
     log, stream = (out / "run.log").open("w"), StepStream(out / STREAM)
     with signals_end_the_run() as guard:
@@ -206,7 +210,7 @@ def execute(
             )
             log.flush()
             recorder = _recorder(built, video)
-            summary["wall_time_s"] = simulate(built, scenario, rows, stream, log, recorder, progress)
+            summary["wall_time_s"] = simulate(built, scenario, rows, stream, log, recorder, progress, replay)
             summary["status"] = "completed"
         except RunInterrupted as exc:  # a signal: the steps so far are results, not a failure
             summary |= interrupted_summary(exc, rows)
@@ -226,7 +230,7 @@ def execute(
             guard.hold()  # a second signal must not cut the results short
             if built is not None:
                 built.sim.close()
-            run = RunRecord(out, scenario, scenario_dir, rows, summary, meta, twin)
+            run = RunRecord(out, scenario, scenario_dir, rows, summary, meta, twin, replay)
             finish_run(run, (log, stream, recorder), writes, plots)
     if writes.reason is not None:  # the run completed, its results could not all be written
         raise RunFailed(out, writes.reason)

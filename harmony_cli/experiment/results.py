@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import IO, TYPE_CHECKING
 
 from harmony_cli.experiment.faults import Writes, write_whole
+from harmony_cli.experiment.replay_log import REPLAY, ReplayLog
 from harmony_cli.experiment.stream import STREAM, StepStream
 from harmony_cli.robot.urdf import hand_below
 from harmony_cli.scenario import Scenario, robot_of
@@ -40,6 +41,7 @@ class RunRecord:
     summary: dict
     meta: dict
     twin: pd.DataFrame | None = None
+    replay: ReplayLog | None = None  # the knots and plans: replay.npz
 
 
 def write_results(run: RunRecord, attempt: Attempt = _now) -> pd.DataFrame:
@@ -81,6 +83,8 @@ def finish_run(
     if recorder and (video := writes("video", recorder.close)) is not None:
         summary["video"] = str(video)
     steps = write_results(run, writes)
+    if run.replay is not None:
+        writes(REPLAY, lambda: run.replay.write(out))  # type: ignore[union-attr]
     writes("run.log", lambda: log.write(f"status: {summary['status']}\n"))
     writes("run.log", log.close)
     if len(steps) and (plots == "all" or plots == "failed" and not succeeded(summary)):

@@ -15,6 +15,7 @@ PARTS = {
     "planner_ms": "planner",
     "wbmpc_ms": "whole-body MPC",
     "previous_log_ms": "logging",
+    "previous_replay_ms": "replay log",
     "previous_physics_ms": "physics",
 }
 

@@ -31,6 +31,7 @@ class Truth:
 
     box_position: np.ndarray | None  # centre [m] (None: no box)
     box_z_axis: np.ndarray | None  # its z axis in the world (upright: ~ (0, 0, 1))
+    box_pose: np.ndarray | None  # centre and quaternion (x, y, z, w): replays draw it
     box_touches_robot: bool
     pad_contact_N: np.ndarray | None  # per hand, the box's contact normal force on the links below its wrist sensor
     push_N: dict[str, float]  # push_<name>_N, the force acting over the coming physics steps
@@ -116,13 +117,14 @@ class Simulation:
     def truth(self) -> Truth:
         """Ground truth for the logs (never for the controllers)."""
         world = self.world
-        centre, z_axis, touching, contact = None, None, False, None
+        centre, z_axis, pose, touching, contact = None, None, None, False, None
         positions: dict[str, np.ndarray] = {}
         robot: dict[str, float] = {}
         carried: dict[str, float] = {}
         if world is not None:
             if world.box is not None:
-                centre, z_axis = world.box_state()
+                centre, z_axis, quaternion = world.box_state()
+                pose = np.concatenate([centre, quaternion])
                 contacts = self.client.getContactPoints(bodyA=world.box, bodyB=self.body)  # whether, and where
                 touching, contact = len(contacts) > 0, self._pad_forces(contacts)
                 carried = world.clearances(world.box)
@@ -131,6 +133,7 @@ class Simulation:
         return Truth(
             box_position=centre,
             box_z_axis=z_axis,
+            box_pose=pose,
             box_touches_robot=touching,
             pad_contact_N=contact,
             push_N=self.pushes.magnitudes(self.time),

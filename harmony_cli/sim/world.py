@@ -105,10 +105,11 @@ class World:
         position, orientation = self._base_pose(self.box)
         return np.array(position), pybullet.getEulerFromQuaternion(orientation)[2]
 
-    def box_state(self) -> tuple[np.ndarray, np.ndarray]:
-        """Box centre and its z axis in the world (upright: z axis ~ (0, 0, 1))."""
+    def box_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Box centre, its z axis in the world (upright: z axis ~ (0, 0, 1)) and its quaternion (x, y, z, w)."""
         position, orientation = self._base_pose(self.box)
-        return np.array(position), np.array(pybullet.getMatrixFromQuaternion(orientation)[2::3])  # row-major 3x3
+        z_axis = np.array(pybullet.getMatrixFromQuaternion(orientation)[2::3])  # row-major 3x3
+        return np.array(position), z_axis, np.array(orientation)
 
     def clearance(self, body: int, obstacle: str) -> float:
         """Smallest distance between any part of `body` and an obstacle (negative: penetration), up to FAR."""

@@ -1,6 +1,7 @@
 """`harmony study report DIR`: from study.parquet, report.md with the success rate and its Wilson 95 % interval per
 grid point, outcomes by category, distributions of the run metrics, success against every varied field (plots)
-and the runs that did not succeed with the command that replays each."""
+and the runs that did not succeed, each with the command that shows its replay (`harmony view`) and the one that
+runs it again."""
 
 from __future__ import annotations
 
@@ -100,10 +101,11 @@ def write_report(study: Path) -> list[Path]:
     failed = table[table["outcome"] != "success"]
     lines += ["", f"## Runs that did not succeed ({len(failed)})", ""]
     if len(failed):
-        lines += ["| sample | grid point | outcome | reason | replay |", "|---:|---|---|---|---|"]
+        header = "| sample | grid point | outcome | reason | look at it | run it again |"
+        lines += [header, "|---:|---|---|---|---|---|"]
         lines += [
             f"| {r['sample']} | {r['point']} | {r['outcome']} | {_cell(r['reason'])} | "
-            f"`harmony run {r['run_dir']}/scenario.resolved.yaml` |"
+            f"`harmony view {r['run_dir']}` | `harmony run {r['run_dir']}/scenario.resolved.yaml` |"
             for _, r in failed.sort_values(["sample", "point"]).iterrows()
         ]
     figures = [_plot_outcomes(counts, study), _plot_metrics(table, study)]

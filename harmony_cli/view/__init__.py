@@ -1,0 +1,1 @@
+"""Replays of run directories in the browser (viser): `harmony view`."""
