@@ -1,4 +1,5 @@
-"""The base as the task-space planner sees it (footprint carried behind the hands), and goals inside a clearance."""
+"""The base as the task-space planner sees it (footprint carried behind the hands), goals and starts inside a
+clearance."""
 
 from __future__ import annotations
 
@@ -100,3 +101,16 @@ def test_a_goal_inside_an_obstacle_s_clearance_is_still_reached_keeping_as_far_a
     positions, _ = result.plan.sample(np.linspace(0.0, result.plan.horizon, 200))
     np.testing.assert_allclose(positions[-1], GOAL, atol=1e-9)
     assert cylinder.shape.distance(positions.reshape(-1, 3))[0].min() > inside - 0.006
+
+
+def test_a_hand_starting_inside_two_margins_that_pull_apart_gets_a_plan_that_never_goes_deeper():
+    # hand 0 starts 0.1 m from two cylinders on either side (clearance 0.13): the rows ask it to move +y and -y at
+    # once, which no horizon meets; relaxed, they ask only not to get worse, and the plan slides out along x
+    gap = 0.1
+    sides = [_cylinder(START[0, 0], START[0, 1] + sign * (0.3 + gap), HAND_CLEARANCE) for sign in (1, -1)]
+    result = _plan(sides, None)
+    assert result.success and result.status.endswith("(clearance relaxed)")
+    positions, _ = result.plan.sample(np.linspace(0.0, result.plan.horizon, 300))
+    nearest = np.minimum(*(side.shape.distance(positions[:, 0])[0] for side in sides))
+    assert nearest.min() > gap - 1e-4  # rows hold at the samples, to first order: between them, microns
+    np.testing.assert_allclose(positions[-1], GOAL, atol=1e-9)

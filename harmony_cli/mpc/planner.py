@@ -177,17 +177,19 @@ class TaskPlanner:
         state, goal, heading_goal = ends
         status, success, clearance, it = "max_iter", True, np.inf, 0
         # the measured start may not allow reaching the goal at rest within the rate bounds by the phase's end
-        # (the hands lag, the phase is short): then the plan takes longer, and says so
-        for stretch in STRETCHES:
+        # (the hands lag, the phase is short): then the plan takes longer, and says so. Last, the clearance rows
+        # violated now (the hands already inside a margin, linearisations that contradict) ask only not to get worse
+        for relaxed, stretch in [(r, s) for r in (False, True) for s in STRETCHES]:
             self._fixed(C, state, goal, heading_goal, T * stretch)
-            step, clearance, status = self._sqp_step(C, t, T * stretch, carried, width)
+            step, clearance, status = self._sqp_step(C, t, T * stretch, carried, width, relaxed)
             if step is not None:
                 break
         T *= stretch
         suffix = f" (horizon stretched x{stretch:g})" if stretch > 1 else ""
+        suffix += " (clearance relaxed)" if relaxed else ""
         for it in range(1, iterations + 1):
             if it > 1:
-                step, clearance, status = self._sqp_step(C, t, T, carried, width)
+                step, clearance, status = self._sqp_step(C, t, T, carried, width, relaxed)
             if step is None:
                 success = False
                 break
@@ -217,9 +219,9 @@ class TaskPlanner:
         seeded = replace(seeded, status=seeded.status + " (route)")
         return seeded if rank(seeded, self.B, self.obstacles) > rank(solved, self.B, self.obstacles) else solved
 
-    def _sqp_step(self, C: np.ndarray, t: float, T: float, carried: tuple[float, float] | None, width: float):
+    def _sqp_step(self, C: np.ndarray, t: float, T: float, carried, width: float, relaxed: bool = False):
         """One Gauss-Newton QP over the free control points of the plan over [t, t + T]: (step or None, predicted
-        clearance, status)."""
+        clearance, status); `relaxed`: a clearance row violated now asks only not to get worse."""
         x, args = C.ravel(), self.qp.args
         curves = C @ self.B.T  # (7, S)
         self._pose_residuals(curves, width)
@@ -234,6 +236,8 @@ class TaskPlanner:
         Ax = (self.A @ x)[self.keep]
         args["lba"][: self.n_keep], args["uba"][: self.n_keep] = -limit - Ax, limit - Ax
         clearance = self._clearance_rows(curves, t, T, carried)
+        if relaxed:
+            np.minimum(args["lba"][self.n_keep :], 0.0, out=args["lba"][self.n_keep :])
         out = self.qp()
         stats = self.qp.stats()
         if stats["success"]:
