@@ -158,3 +158,28 @@ def test_sigterm_to_compare_ends_every_worker_run_cleanly_and_exits_143(tmp_path
         summary = json.loads((run / "summary.json").read_text())
         assert summary["status"] == "interrupted" and summary["signal"] == "SIGTERM", summary
         assert len(pd.read_csv(run / "steps.csv")) > 50
+
+
+def test_a_signal_whose_exception_a_library_swallowed_still_ends_the_run_at_the_next_step(tmp_path, monkeypatch):
+    """SIGTERM lands inside the whole-body MPC's step at step 5 and its RunInterrupted is swallowed there (as IPOPT
+    does with an exception raised in a Python callback): the run still stops at step 6, exit 143."""
+    from harmony_cli.mpc.wholebody import WholeBodyMPC
+
+    original, calls = WholeBodyMPC.step, []
+
+    def swallowing(self, *args, **kwargs):
+        calls.append(1)
+        if len(calls) == 5:
+            try:
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(0.5)  # the handler raises here
+            except RunInterrupted:
+                pass
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(WholeBodyMPC, "step", swallowing)
+    out = tmp_path / "run"
+    result = CliRunner().invoke(app, ["run", str(SMOKE), "--out", str(out), "--quiet", *LONG])
+    assert result.exit_code == 143, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["signal"] == "SIGTERM" and len(calls) == 5

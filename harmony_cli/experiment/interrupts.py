@@ -33,12 +33,19 @@ class Guard:
 
     def __init__(self) -> None:
         self.stopping = False
+        self.received: str | None = None  # the signal that stops the run
 
     def handle(self, signum: int, frame: object) -> None:
         if self.stopping:  # a second signal, or one while the results are written: let them be written
             return
-        self.stopping = True
-        raise RunInterrupted(signal.Signals(signum).name)
+        self.stopping, self.received = True, signal.Signals(signum).name
+        raise RunInterrupted(self.received)
+
+    def check(self) -> None:
+        """Called every step: raises again a RunInterrupted that a library swallowed (raised inside a solver's
+        Python callback, IPOPT reports a failed solve and the loop would go on with later signals ignored)."""
+        if self.received is not None:
+            raise RunInterrupted(self.received)
 
     def hold(self) -> None:
         """From here on (writing the results) signals are ignored."""

@@ -16,7 +16,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
 from harmony_cli.experiment.faults import HeldPlans, RunFault, Writes, failed, fault_of
 from harmony_cli.experiment.health import Health, check_start
-from harmony_cli.experiment.interrupts import RunInterrupted, interrupted_summary, signals_end_the_run
+from harmony_cli.experiment.interrupts import Guard, RunInterrupted, interrupted_summary, signals_end_the_run
 from harmony_cli.experiment.loop import Watch, run_loop
 from harmony_cli.experiment.replay_log import ReplayLog
 from harmony_cli.experiment.results import RunRecord, finish_run
@@ -117,9 +117,10 @@ def simulate(
     recorder: VideoRecorder | None,
     progress: bool,
     replay: ReplayLog | None = None,
+    guard: Guard | None = None,
 ) -> float:
     """The closed loop, every step's record appended to `rows` and streamed to steps.jsonl as it exists; returns
-    the wall time [s]."""
+    the wall time [s]. `guard` is checked every step (a signal whose exception a library swallowed)."""
     every = frame_every(scenario.sim.control_dt, VIDEO_FPS)
     held = HeldPlans()
 
@@ -145,6 +146,12 @@ def simulate(
         transient=False,
     ) as bar:
         task = bar.add_task("run", total=int(round(sim.duration / sim.control_dt)))
+
+        def step_done(done: int, total: int) -> None:  # the total grows while a task's phases wait
+            if guard is not None:
+                guard.check()
+            bar.update(task, completed=done, total=total)
+
         start = time.perf_counter()
         run_loop(
             built.mpc,
@@ -154,7 +161,7 @@ def simulate(
             sim.control_dt,
             sim.substeps,
             record,
-            lambda done, total: bar.update(task, completed=done),
+            step_done,
             built.watch,
             built.predict,
             Health(built.robot, sim.control_dt),
@@ -210,7 +217,7 @@ def execute(
             )
             log.flush()
             recorder = _recorder(built, video)
-            summary["wall_time_s"] = simulate(built, scenario, rows, stream, log, recorder, progress, replay)
+            summary["wall_time_s"] = simulate(built, scenario, rows, stream, log, recorder, progress, replay, guard)
             summary["status"] = "completed"
         except RunInterrupted as exc:  # a signal: the steps so far are results, not a failure
             summary |= interrupted_summary(exc, rows)
