@@ -114,3 +114,25 @@ def test_a_hand_starting_inside_two_margins_that_pull_apart_gets_a_plan_that_nev
     nearest = np.minimum(*(side.shape.distance(positions[:, 0])[0] for side in sides))
     assert nearest.min() > gap - 1e-4  # rows hold at the samples, to first order: between them, microns
     np.testing.assert_allclose(positions[-1], GOAL, atol=1e-9)
+
+
+def test_plan_view_distances_of_every_body_at_once_equal_each_shape_s_own_distance():
+    # plan_base's vectorised distances against maths/shapes.py's Shape.distance, box and cylinder, in and outside
+    from harmony_cli.mpc.plan_base import _plan_distances
+
+    rng = np.random.default_rng(3)
+    shapes = [
+        Shape("box", np.array([0.5, -1.0, 0.5]), 0.4, np.array([0.3, 0.2, 0.5])),
+        Shape("cylinder", np.array([1.0, 0.3, 1.0]), 0.0, np.array([0.6, 0.6, 1.0])),
+    ]
+    points = rng.uniform(-1.5, 2.0, size=(40, 1, 2))
+    centres = np.array([[s.centre[:2]] for s in shapes])
+    dist, grad = _plan_distances(
+        points, centres, np.array([s.yaw for s in shapes]), np.array([s.half[:2] for s in shapes]), np.array([0, 1])
+    )
+    for k, shape in enumerate(shapes):
+        flat = np.column_stack([points[:, 0], np.full(40, shape.centre[2])])
+        expected, expected_grad = shape.distance(flat)
+        assert (expected < 0).any() and (expected > 0).any()
+        np.testing.assert_allclose(dist[k, :, 0], expected, atol=1e-12)
+        np.testing.assert_allclose(grad[k, :, 0], expected_grad[:, :2], atol=1e-12)

@@ -100,7 +100,6 @@ class GaussNewtonSolver:
             h = vals[kept]
             h[diagonal] += self.regularisation
             bounds = h, g[free], lbx[free] - x[free], ubx[free] - x[free]
-            relaxed = False
             for relaxed in (False, True) if self.constraints is not None else (False,):
                 if isinstance(qp, ScreenedQP):
                     dz, failure, rows, solves = self._screened_step(qp, rows_from, r, x, p, free, bounds, relaxed)

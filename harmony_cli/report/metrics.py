@@ -78,9 +78,7 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
                 "start_s": start,
                 "completed_s": float(reached.min()) if len(reached) else None,
                 "final_goal_error_m": float(goal_error[rows].iloc[-1]) if rows.any() else None,
-                "waited_s": float(steps["delay_s"][rows].max() - steps["delay_s"][rows].min() if rows.any() else 0.0)
-                if "delay_s" in steps
-                else 0.0,
+                "waited_s": float(np.ptp(steps["delay_s"][rows])) if rows.any() and "delay_s" in steps else 0.0,
             }
         )
     out["phases"] = phases

@@ -4,6 +4,7 @@ MPC's knots. It sees only the observation (hands, box pose) and the scenario's s
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from functools import partial
 from typing import TYPE_CHECKING
 
@@ -47,7 +48,7 @@ class TaskReferences:
             for o in scenario.world.obstacles
         ]
         hands = np.array([p0, p1])
-        base = _planned_base(scenario, robot.home[list(robot.base_joints)], hands)
+        base = _planned_base(scenario, robot.home[list(robot.base_joints)], hands, obstacles)
         self.planner = TaskPlanner(scenario.planner, obstacles, self.home_rotations, offset, _ground(scenario), base)
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
         box = scenario.world.box
@@ -135,16 +136,15 @@ def _ground(scenario: Scenario) -> Ground | None:
     return Ground(tables, 0.5 * narrowest_width(circles))
 
 
-def _planned_base(scenario: Scenario, base_pose: np.ndarray, hands: np.ndarray) -> PlannedBase | None:
+def _planned_base(
+    scenario: Scenario, base_pose: np.ndarray, hands: np.ndarray, obstacles: list[Obstacle]
+) -> PlannedBase | None:
     """The footprint as the planner carries it behind the hands (None: no footprint, or nothing to clear), kept
-    clear of what the whole-body MPC keeps it clear of: every obstacle by its margin, every table leg by the base's
-    margin."""
+    clear of what the whole-body MPC keeps it clear of: every obstacle (the hands' `obstacles`, in scenario order)
+    by its margin, every table leg by the base's margin."""
     circles = np.asarray(scenario.robot.footprint, dtype=float).reshape(-1, 3)
     if len(circles) == 0:
         return None
-    bodies = [
-        Obstacle(obstacle_shape(o), o.margin, partial(centre_at, o) if o.motion is not None else None)
-        for o in scenario.world.obstacles
-    ]
+    bodies = [replace(ob, clearance=o.margin) for o, ob in zip(scenario.world.obstacles, obstacles)]
     bodies += [Obstacle(leg, scenario.robot.base_margin) for t in scenario.world.tables for leg in table_legs(t)]
     return PlannedBase.at_home(circles, base_pose, hands, bodies) if bodies else None
