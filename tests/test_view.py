@@ -138,6 +138,7 @@ def test_runs_of_different_scenes_are_refused(fast_run, tmp_path):
     other = tmp_path / "other"
     shutil.copytree(fast_run, other)
     text = (other / "scenario.resolved.yaml").read_text()
+    assert "tables: []" in text  # else the runs stay one scene and the page serves until stopped
     (other / "scenario.resolved.yaml").write_text(text.replace("tables: []", "tables: [{name: t, position: [3, 0]}]"))
     result = runner.invoke(app, ["view", str(fast_run), str(other), "--no-browser"])
     assert result.exit_code == 2 and str(other) in result.output and "not the scene of" in result.output

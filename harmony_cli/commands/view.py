@@ -9,6 +9,7 @@ from pathlib import Path
 import typer
 
 from harmony_cli.console import fail, literal
+from harmony_cli.sim.video import VIDEO_SUFFIXES
 
 
 def view(
@@ -20,15 +21,16 @@ def view(
     video: Path | None = typer.Option(None, help="Render the (first) run to this .mp4 or .gif and exit"),
 ):
     """Replay runs in a local web page (robot, scene, paths, plans, knots, forces, timeline); Ctrl-C ends it."""
-    try:
+    try:  # the page's own imports (viser, yourdfpy) too: a missing extra is one line, not a traceback
+        from harmony_cli.view.replay import Replay
         from harmony_cli.view.run_data import NotARun, load_runs
     except ImportError as exc:  # the `view` extra is not installed
         fail(f"view: {exc.name or exc} is missing; install harmony with its `view` extra (pip install -e '.[view]')")
         return
     if export is not None and export.suffix.lower() != ".html":
         fail(f"view --export: {str(export)!r} must end in .html")
-    if video is not None and video.suffix.lower() not in (".mp4", ".gif"):
-        fail(f"view --video: {str(video)!r} must end in .mp4 or .gif")
+    if video is not None and video.suffix.lower() not in VIDEO_SUFFIXES:
+        fail(f"view --video: {str(video)!r} must end in one of {', '.join(VIDEO_SUFFIXES)}")
     try:
         loaded = load_runs(runs)
     except NotARun as exc:
@@ -40,8 +42,6 @@ def view(
         typer.echo(literal(str(render_video(loaded[0], video))))
         if export is None:
             return
-    from harmony_cli.view.replay import Replay
-
     replay = Replay(loaded, port=port, host=host)
     if export is not None:
         typer.echo(literal(str(replay.export(export))))

@@ -4,6 +4,7 @@ again from the resolved scenario when it is not there)."""
 
 from __future__ import annotations
 
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -11,11 +12,10 @@ import numpy as np
 import pandas as pd
 
 from harmony_cli.cache import CACHE_DIR
+from harmony_cli.experiment.replay_log import REPLAY
 from harmony_cli.robot.model import urdf_plan
 from harmony_cli.robot.prepare import prepare_urdf
 from harmony_cli.scenario import Scenario, ScenarioError, load_scenario
-
-REPLAY = "replay.npz"  # experiment/replay_log.py writes it
 
 
 class NotARun(ValueError):
@@ -66,8 +66,11 @@ def load_run(path: Path) -> RunData:
         raise NotARun(f"{path}: steps.csv has no steps")
     arrays = {}
     if (path / REPLAY).is_file():
-        with np.load(path / REPLAY) as npz:
-            arrays = {name: npz[name][: len(steps)] for name in npz.files}
+        try:  # a run killed while writing it leaves a truncated file
+            with np.load(path / REPLAY) as npz:
+                arrays = {name: npz[name][: len(steps)] for name in npz.files}
+        except (ValueError, OSError, zipfile.BadZipFile) as exc:
+            raise NotARun(f"{path}: cannot read {REPLAY}: {str(exc).splitlines()[0]}") from exc
     spec = scenario.robot
     prepared = prepare_urdf(
         (resolved.parent / spec.urdf).resolve(), urdf_plan(spec, resolved.parent), CACHE_DIR / "urdf"
