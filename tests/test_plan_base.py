@@ -39,19 +39,21 @@ def test_footprint_margin_jacobian_equals_finite_differences():
     C = 0.5 * rng.normal(size=(7, M)) + np.r_[1.2, 0.3, 1.2, 1.2, -0.3, 1.2, 0.0][:, None]
     C[[0, 3], :2], C[[0, 3], -3:] = -3.0, 5.0  # fixed ends clear of both bodies (nothing to relieve)
 
-    def rows(C):
-        r, J = np.zeros(2 * S), np.zeros((7, free.sum(), 2 * S))
-        base.rows(np.column_stack([C[:, 0], C @ B.T]), np.r_[0.0, s], 10.0, B[:, free].T.copy(), r, J)
-        return r, J
+    def rows(C):  # every row, the inactive ones 0 (rows returns the active ones only)
+        margins = base.margins((0.5 * (C[0:2] + C[3:5]) @ B.T).T, C[6] @ B.T, s)[0]
+        r, J, _ = base.rows(np.column_stack([C[:, 0], C @ B.T]), np.r_[0.0, s], 10.0, B[:, free].T.copy())
+        full, full_J = np.zeros(2 * S), np.zeros((2 * S, J.shape[1]))
+        active = np.flatnonzero(margins.ravel() < 0.0)  # no reliefs: the ends are clear
+        full[active], full_J[active] = r, J
+        return full, full_J
 
     r, J = rows(C)
     assert (r < 0).sum() >= 3  # the footprint overlaps the bodies somewhere: rows are active
     numeric = np.zeros_like(J)
-    for curve in range(7):
-        for f, column in enumerate(np.flatnonzero(free)):
-            moved = C.copy()
-            moved[curve, column] += 1e-7
-            numeric[curve, f] = (rows(moved)[0] - r) / 1e-7
+    for column in range(J.shape[1]):
+        moved = C.copy()
+        moved[column // free.sum(), np.flatnonzero(free)[column % free.sum()]] += 1e-7
+        numeric[:, column] = (rows(moved)[0] - r) / 1e-7
     np.testing.assert_allclose(J, numeric, atol=1e-5)
 
 
@@ -67,6 +69,22 @@ def test_footprint_margin_equals_the_circles_distance_to_a_cylinder_by_hand():
         circles = midpoint - rotation @ hands_in_base + CIRCLES[:, :2] @ rotation.T
         by_hand = np.linalg.norm(circles - [0.5, 1.2], axis=1) - 0.3 - CIRCLES[:, 2] - BASE_CLEARANCE
         assert abs(margin - by_hand.min()) < 1e-12
+
+
+def test_screen_is_a_lower_bound_of_the_footprint_margin():
+    # a body the screen puts above 0 would add no row: the bound must never exceed the true margin
+    rng = np.random.default_rng(1)
+    box = Obstacle(Shape("box", np.array([0.5, -1.0, 0.5]), 0.4, np.array([0.3, 0.2, 0.5])), 0.03)
+    cylinder = _cylinder(1.0, 0.3, BASE_CLEARANCE)
+    moving = Obstacle(cylinder.shape, BASE_CLEARANCE, lambda t: cylinder.shape.centre + np.outer(t, [0.5, -0.2, 0]))
+    base = _base([cylinder, box, moving], yaw=0.3)
+    midpoints, headings = rng.uniform(-3.0, 4.0, size=(500, 2)), rng.uniform(-np.pi, np.pi, 500)
+    times = rng.uniform(0.0, 4.0, 500)
+    margins = base.margins(midpoints, headings, times)[0]
+    bounds = np.array([base.screen(m[None], h[None], t[None]) for m, h, t in zip(midpoints, headings, times)]).T
+    assert (bounds <= margins + 1e-12).all()
+    assert (bounds > 0).any() and (margins < 0).any()  # both kinds of sample were drawn
+    assert (margins - bounds).min() < 0.1  # and tight where the footprint points at the body
 
 
 def _plan(obstacles: list[Obstacle], base: PlannedBase | None, goal=GOAL):

@@ -30,6 +30,10 @@ class PlannedBase:
     _halves: np.ndarray = field(init=False, repr=False)
     _round: np.ndarray = field(init=False, repr=False)
     _clearances: np.ndarray = field(init=False, repr=False)
+    _radii: np.ndarray = field(init=False, repr=False)
+    _hub: np.ndarray = field(init=False, repr=False)
+    _moving: tuple[int, ...] = field(init=False, repr=False)
+    _spread: float = field(init=False, repr=False)
 
     @classmethod
     def at_home(cls, circles: np.ndarray, base_pose: np.ndarray, hands: np.ndarray, bodies: list[Obstacle]):
@@ -46,45 +50,79 @@ class PlannedBase:
         object.__setattr__(self, "_halves", np.array([s.half[:2] for s in shapes]).reshape(-1, 2))
         object.__setattr__(self, "_round", np.array([s.kind != "box" for s in shapes]))
         object.__setattr__(self, "_clearances", np.array([b.clearance for b in self.bodies]))
+        radii = np.where(self._round, self._halves[:, 0], np.hypot(self._halves[:, 0], self._halves[:, 1]))
+        object.__setattr__(self, "_radii", radii)  # each body's plan-view radius about its centre
+        hub = self.offsets.mean(axis=0) if len(self.offsets) else np.zeros(2)  # the footprint's middle
+        spread = np.hypot(*(self.offsets - hub).T) + self.circles[:, 2]
+        object.__setattr__(self, "_hub", hub)
+        object.__setattr__(self, "_moving", tuple(k for k, b in enumerate(self.bodies) if b.motion is not None))
+        object.__setattr__(self, "_spread", float(spread.max(initial=0.0)))  # its bounding circle's radius
 
-    def margins(self, midpoints: np.ndarray, headings: np.ndarray, times: np.ndarray):
-        """Per body and sample, the smallest margin (>= 0: clear) of any circle of the footprint placed at the
-        hands' `midpoints` (S, 2) and `headings` (S,) at absolute `times` (S,); with its gradient with respect to
-        the midpoint (bodies, S, 2) and the heading (bodies, S)."""
+    def margins(self, midpoints: np.ndarray, headings: np.ndarray, times: np.ndarray, near=None):
+        """Per body (those `near`, a mask; all by default) and sample, the smallest margin (>= 0: clear) of any circle
+        of the footprint placed at the hands' `midpoints` (S, 2) and `headings` (S,) at absolute `times` (S,); with
+        its gradient with respect to the midpoint (bodies, S, 2) and the heading (bodies, S)."""
+        near = np.ones(len(self.bodies), dtype=bool) if near is None else near
         yaw = self.yaw_home + headings
         c, s = np.cos(yaw), np.sin(yaw)
         ox, oy = self.offsets[:, 0:1], self.offsets[:, 1:2]  # (n, 1) against (S,)
         world = np.stack([c * ox - s * oy, s * ox + c * oy], axis=-1)  # (n, S, 2) the offsets turned
         turn = np.stack([-world[..., 1], world[..., 0]], axis=-1)  # d(world)/d(yaw)
-        centres = np.repeat(self._centres[:, None], len(times), axis=1)  # (K, S, 2) where each body is then
-        for k, body in enumerate(self.bodies):
-            if body.motion is not None:
-                centres[k] = body.motion(times)[:, :2]
-        dist, grad = _plan_distances(midpoints[None] + world, centres, self._yaws, self._halves, self._round)
-        margin = dist - self.circles[None, :, 2:3] - self._clearances[:, None, None]  # (K, n, S)
+        centres = np.broadcast_to(self._centres_at(times), (len(self.bodies), len(times), 2))[near]
+        dist, grad = _plan_distances(
+            midpoints[None] + world, centres, self._yaws[near], self._halves[near], self._round[near]
+        )
+        margin = dist - self.circles[None, :, 2:3] - self._clearances[near, None, None]  # (K, n, S)
         nearest = np.argmin(margin, axis=1)  # (K, S): the circle that matters at each sample
-        bodies, samples = np.ogrid[: len(self.bodies), : len(times)]
+        bodies, samples = np.ogrid[: len(centres), : len(times)]
         g = grad[bodies, nearest, samples]  # (K, S, 2)
         d_psi = np.einsum("ksj,ksj->ks", g, turn[nearest, samples])
         return margin[bodies, nearest, samples], g, d_psi
 
-    def rows(self, curves, times, weight: float, basis: np.ndarray, r, J) -> float:
-        """The planner's soft rows, in place, at the plan's `curves` (7, 1 + S): its fixed start (s = 0), then its
-        S samples (the last is its fixed goal) at absolute `times` (1 + S,): residuals r (bodies * S,) = weight *
-        min(margin + relief, 0) and their Jacobian J (7, free columns, bodies * S) over the free control points
-        (`basis`: (free columns, S)); returns the smallest margin (relieved). A body's relief is how far the
-        footprint at either fixed end is inside its clearance: a path cannot do better than its ends, and asking
-        it to would bend the hands' path where the whole-body MPC stands the base elsewhere anyway."""
-        margins, d_mid, d_psi = self.margins(0.5 * (curves[0:2] + curves[3:5]).T, curves[6], times)
+    def _centres_at(self, times: np.ndarray) -> np.ndarray:
+        """(bodies, S, 2), or (bodies, 1, 2) when none moves: where each body stands at `times` (S,)."""
+        if not self._moving:
+            return self._centres[:, None]
+        centres = np.repeat(self._centres[:, None], len(times), axis=1)
+        for k in self._moving:
+            centres[k] = self.bodies[k].motion(times)[:, :2]  # type: ignore[misc]
+        return centres
+
+    def screen(self, midpoints: np.ndarray, headings: np.ndarray, times: np.ndarray) -> np.ndarray:
+        """Per body, a lower bound of the footprint's margin to it over the `midpoints` (S, 2) and `headings` (S,) at
+        `times`: the distance from the footprint's bounding circle to the body's centre less the body's plan-view
+        radius. A body it puts above 0 has no row to add (most are table legs across the room)."""
+        yaw = self.yaw_home + headings
+        c, s = np.cos(yaw), np.sin(yaw)
+        ox, oy = self._hub
+        hub = midpoints + np.stack([c * ox - s * oy, s * ox + c * oy], axis=-1)  # (S, 2)
+        gaps = np.sqrt(np.add.reduce((hub[None] - self._centres_at(times)) ** 2, axis=-1)).min(axis=1)
+        return gaps - self._spread - self._radii - self._clearances
+
+    def rows(self, curves, times, weight: float, basis: np.ndarray):
+        """The planner's soft rows at the plan's `curves` (7, 1 + S): its fixed start (s = 0), then its S samples (the
+        last is its fixed goal) at absolute `times` (1 + S,): the active ones only (a margin short of 0), residuals
+        r (m,) = weight * (margin + relief) and their Jacobian J (m, 7 * free columns) over the free control points
+        (`basis`: (free columns, S)); and the smallest margin (relieved; a bound above 0 when nothing is near).
+        A body's relief is how far the footprint at either fixed end is inside its clearance: a path cannot do
+        better than its ends, and asking it to would bend the hands' path where the whole-body MPC stands the base
+        elsewhere anyway."""
+        midpoints = 0.5 * (curves[0:2] + curves[3:5]).T
+        bound = self.screen(midpoints, curves[6], times)
+        near = bound <= 0.0
+        if not near.any():
+            return np.zeros(0), np.zeros((0, 7 * basis.shape[0])), float(bound.min(initial=np.inf))
+        margins, d_mid, d_psi = self.margins(midpoints, curves[6], times, near)
         reliefs = np.maximum(-np.minimum(margins[:, 0], margins[:, -1]), 0.0)
         margins, d_mid, d_psi = margins[:, 1:] + reliefs[:, None], d_mid[:, 1:], d_psi[:, 1:]
-        short = weight * (margins < 0.0)
-        r[:] = (short * margins).ravel()
-        rows = J.shape[2]
+        body, sample = np.nonzero(margins < 0.0)
+        J = np.zeros((len(body), 7, basis.shape[0]))
+        along = basis[:, sample].T  # (m, free columns)
         for curve, axis in ((0, 0), (1, 1), (3, 0), (4, 1)):  # the midpoint is half of each hand
-            J[curve] = (basis[:, None, :] * (0.5 * short * d_mid[..., axis])[None]).reshape(-1, rows)
-        J[6] = (basis[:, None, :] * (short * d_psi)[None]).reshape(-1, rows)
-        return float(margins.min(initial=np.inf))
+            J[:, curve] = along * (0.5 * weight * d_mid[body, sample, axis])[:, None]
+        J[:, 6] = along * (weight * d_psi[body, sample])[:, None]
+        smallest = min(float(margins.min(initial=np.inf)), float(bound[~near].min(initial=np.inf)))
+        return weight * margins[body, sample], J.reshape(len(body), 7 * basis.shape[0]), smallest
 
 
 def _plan_distances(points, centres, yaws, halves, round_):

@@ -81,7 +81,6 @@ class TaskPlanner:
         self._rate_limits = np.r_[np.repeat(v, n1), np.repeat(a, n2)][self.keep]
         self._rate_order = np.r_[np.ones(ROWS * n1), 2 * np.ones(ROWS * n2)][self.keep]
         self.n_keep, self.n_lin = int(self.keep.sum()), self.J_lin.shape[0]
-        self.n_base = 0 if base is None else len(base.bodies) * s.size  # the footprint's soft rows
         self.n_points = 3  # hand 0, hand 1, the carried object (midpoint)
         n_rows = self.n_keep + len(obstacles) * self.n_points * s.size
         dense = {"h": cs.Sparsity.dense(self.n_free, self.n_free), "a": cs.Sparsity.dense(n_rows, self.n_free)}
@@ -99,12 +98,11 @@ class TaskPlanner:
         self.B_free = self.B[:, self.free[0]].T.copy()  # (free columns, S)
         self._B_hands = np.tile(self.B_free, 2)  # both hands' samples side by side
         self._hand_weights = np.repeat(np.eye(2), S, axis=1)  # a hand's gradient: 1 in its own curves' rows, 0 else
-        n_rows = n_lin + 2 * S + self.n_base
+        n_rows = n_lin + 2 * S
         self._J = np.zeros((n_rows, self.n_free), order="F")  # vstack(...)[:, free]'s layout: same BLAS sums
         self._J[:n_lin] = self.J_lin[:, free]
         columns = self._J.T.reshape(ROWS, -1, n_rows)
         self._J_face, self._J_width = columns[:, :, n_lin : n_lin + S], columns[:, :, n_lin + S : n_lin + 2 * S]
-        self._J_base = columns[:, :, n_lin + 2 * S :]
         self._r, self._ridge = np.zeros(n_rows), 1e-9 * np.eye(self.n_free)
         self._reliefs = np.zeros(len(self.obstacles))  # per obstacle, its clearance lowered to the goal's
         self._base_margin = np.inf  # the footprint's smallest margin at the last linearisation
@@ -225,13 +223,15 @@ class TaskPlanner:
         x, args = C.ravel(), self.qp.args
         curves = C @ self.B.T  # (7, S)
         self._pose_residuals(curves, width)
-        if self.base is not None:
-            w, n = self.spec.weights.base, self.n_lin + 2 * self.s.size
-            ends_too, times = np.column_stack([C[:, 0], curves]), t + T * np.r_[0.0, self.s]  # its start, then samples
-            self._base_margin = self.base.rows(ends_too, times, w, self.B_free, self._r[n:], self._J_base)
         self._r[: self.n_lin] = self.J_lin @ x
         np.add(self._J.T @ self._J, self._ridge, out=self._H)
         args["g"][:] = self._J.T @ self._r
+        if self.base is not None:  # its active rows only (usually none): the same sums as zero rows in J, less work
+            ends_too, times = np.column_stack([C[:, 0], curves]), t + T * np.r_[0.0, self.s]  # its start, then samples
+            r, J, self._base_margin = self.base.rows(ends_too, times, self.spec.weights.base, self.B_free)
+            if len(r):
+                self._H += J.T @ J
+                args["g"][:] += J.T @ r
         limit = self._rate_limits * T**self._rate_order  # D^k P are s-derivatives: time derivative = D^k P / T^k
         Ax = (self.A @ x)[self.keep]
         args["lba"][: self.n_keep], args["uba"][: self.n_keep] = -limit - Ax, limit - Ax
