@@ -14,6 +14,7 @@ from typing import IO, TYPE_CHECKING
 
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
+from harmony_cli.console import warn
 from harmony_cli.experiment.faults import HeldPlans, RunFault, Writes, failed, fault_of
 from harmony_cli.experiment.health import Health, check_start
 from harmony_cli.experiment.interrupts import Guard, RunInterrupted, interrupted_summary, signals_end_the_run
@@ -97,7 +98,25 @@ def describe(scenario: Scenario, built: Built) -> dict:
         "decision_label": mpc.transcription.decision_label,
         "n_dof": built.robot.n_dof,
         "build_time_s": mpc.build_time,
+        "stance_warning": "; ".join(stance_warnings(built)) or None,
     }
+
+
+def _notes(scenario: Scenario, scenario_dir: Path, built: Built, progress: bool) -> list[str]:
+    """What run.log says before the loop: the robot's and the simulation's notes, the written stances' warnings
+    (on the console too when it shows progress: before the robot moves; a study says them in its report)."""
+    stances = stance_warnings(built)
+    if progress:
+        warn(stances)
+    notes = robot_warnings(scenario, scenario_dir) + list(built.robot.notes) + built.sim.notes
+    return notes + [f"warning: {line}" for line in stances]
+
+
+def stance_warnings(built: Built) -> list[str]:
+    """Written grip and place stances that leave the base inside a margin (tasks/stance.py), a line each."""
+    if not isinstance(built.references, TaskReferences):
+        return []
+    return [w for stance in built.references.stances if (w := stance.warning()) is not None]
 
 
 def solver_paths(built: Built) -> dict[str, str]:
@@ -207,8 +226,7 @@ def execute(
             summary |= describe(scenario, built)
             meta["solver_paths"] = solver_paths(built)
             (out / "meta.json").write_text(json.dumps(meta, indent=2))  # now too: `harmony summarise` after a kill
-            notes = robot_warnings(scenario, scenario_dir) + list(built.robot.notes) + built.sim.notes
-            log.write("".join(f"{line}\n" for line in notes))
+            log.write("".join(f"{line}\n" for line in _notes(scenario, scenario_dir, built, progress)))
             log.write(
                 f"built whole-body MPC: {built.mpc.problem.n_vars} decision variables in {built.mpc.build_time:.2f} s"
                 + (f" ({REUSED})" if built.mpc.reused else "")

@@ -30,6 +30,8 @@ def run_lines(run_dir: Path, summary: dict) -> list[str]:
         )
         if task.get("failure"):
             lines.append(f"task failed ({task['failure']['category']}): {task['failure']['reason']}")
+        if summary.get("stance_warning"):
+            lines.append(f"warning: {summary['stance_warning']}")
         for name, c in task.get("min_clearance_moving_m", {}).items():
             clearances = ", ".join(f"{who} {v:.3f} m" for who, v in c.items())
             lines.append(f"moving obstacle {name}: min clearance {clearances}")

@@ -21,6 +21,7 @@ from harmony_cli.robot.observation import Observation
 from harmony_cli.tasks.motion import centre_at
 from harmony_cli.tasks.passage import narrowest_width
 from harmony_cli.tasks.schedule import ActivePhase, Schedule
+from harmony_cli.tasks.stance import Stance, stances
 from harmony_cli.tasks.targets import HandTargets
 
 if TYPE_CHECKING:
@@ -50,6 +51,7 @@ class TaskReferences:
         hands = np.array([p0, p1])
         base = _planned_base(scenario, robot.home[list(robot.base_joints)], hands, obstacles)
         self.planner = TaskPlanner(scenario.planner, obstacles, self.home_rotations, offset, _ground(scenario), base)
+        self.stances = _stances(scenario, robot, hands, offset)
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
         box = scenario.world.box
         self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
@@ -148,3 +150,20 @@ def _planned_base(
     bodies = [replace(ob, clearance=o.margin) for o, ob in zip(scenario.world.obstacles, obstacles)]
     bodies += [Obstacle(leg, scenario.robot.base_margin) for t in scenario.world.tables for leg in table_legs(t)]
     return PlannedBase.at_home(circles, base_pose, hands, bodies) if bodies else None
+
+
+def _stances(scenario: Scenario, robot: Robot, hands: np.ndarray, heading_offset: float) -> list[Stance]:
+    """Where the base stands to grip and to place as written (stance.py), among the static bodies."""
+    box, circles = scenario.world.box, np.asarray(scenario.robot.footprint, dtype=float).reshape(-1, 3)
+    if scenario.task is None or box is None or len(circles) == 0:
+        return []
+    static = [o for o in scenario.world.obstacles if o.motion is None]
+    bodies = [Obstacle(obstacle_shape(o), o.margin) for o in static]
+    names = [f"obstacle {o.name}" for o in static]
+    for table in scenario.world.tables:
+        bodies += [Obstacle(leg, scenario.robot.base_margin) for leg in table_legs(table)]
+        names += [f"table {table.name}'s leg"] * len(table_legs(table))
+    footprint = PlannedBase.at_home(circles, robot.home[list(robot.base_joints)], hands, bodies)
+    goal = None if box.goal is None else np.asarray(box.goal, dtype=float)
+    where = (np.asarray(box.position, dtype=float), float(np.deg2rad(box.yaw_deg)), goal)
+    return stances(scenario.task, robot.hand_names, where, (footprint, names), heading_offset)

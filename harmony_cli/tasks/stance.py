@@ -1,0 +1,122 @@
+"""Where the base stands to work at the box, said before the robot moves. A scenario writes its grip from one side
+(the box-relative phases: approach, grasp, lift) and its place at one heading (the phases after the grasp with
+absolute targets: carry, lower, release, retreat). The base standing behind those hands as at home (plan_base.py)
+may be inside an obstacle's margin (or a table leg's): the whole-body MPC then stands it elsewhere and twists the
+arms, and a held box may slip. In the randomised study every run that failed had such a stance, most runs with one
+still succeeded: a warning, not a refusal. It names the body and the smallest turn of the group's hand targets
+about its pivot (the box; the box's goal) that would clear the base, for the author to write.
+
+Turning the targets automatically was tried (issue 14): it changed which runs failed, not how many (the carry to
+a turned place twists the grip instead), so the turn is a suggestion."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from harmony_cli.mpc.plan_base import PlannedBase
+from harmony_cli.scenario.task import RelativeTarget, TaskSpec
+
+STEP_DEG, MOST_DEG = 15, 90  # turns tried: +-15, +-30, ... +-90 deg (a grip from behind the box is not one)
+# [m] how far inside a margin a written stance may be without a warning: the whole-body MPC stands the base where
+# the arms reach from, not exactly as at home, and makes up about this much by stretching them
+TOLERANCE = 0.1
+
+
+@dataclass(frozen=True)
+class Stance:
+    """A group of phases (names) and its pivot ("the box", "the box's goal"): the base's smallest margin [m] with
+    the hands as written, the body it is nearest, and the smallest turn [deg] about the pivot that clears it
+    (None: none up to MOST_DEG)."""
+
+    phases: tuple[str, ...]
+    pivot: str
+    margin: float
+    body: str
+    turn_deg: float | None
+
+    def warning(self) -> str | None:
+        """One line when the written stance is more than TOLERANCE inside a margin, else None."""
+        if self.margin >= -TOLERANCE:
+            return None
+        fix = (
+            f"turning those hand targets by {self.turn_deg:+g} deg about {self.pivot} would clear it"
+            if self.turn_deg is not None
+            else f"no turn about {self.pivot} up to {MOST_DEG} deg clears it"
+        )
+        where = self.phases[0] if len(self.phases) == 1 else f"{self.phases[0]} to {self.phases[-1]}"
+        inside = f"is {-self.margin:.2f} m inside {self.body}'s margin"
+        return f"stance: in phases {where} the base, behind the hands as written, {inside}; {fix}"
+
+
+def stances(
+    task: TaskSpec,
+    hand_names: tuple[str, ...],
+    box: tuple[np.ndarray, float, np.ndarray | None],
+    base: tuple[PlannedBase, list[str]],
+    heading_offset: float,
+) -> list[Stance]:
+    """The grip's and the place's stances (none without a grasp phase or two hands; no place without a goal).
+    `box`: its position (3,), yaw [rad] and goal (3,) or None as the scenario writes them; `base`: the footprint with
+    the static bodies it keeps clear of, and their names; `heading_offset`: the planner's (heading 0 at home)."""
+    grasp = next((i for i, p in enumerate(task.phases) if p.grasp), None)
+    if grasp is None or len(hand_names) != 2:
+        return []
+    position, yaw, goal = box
+    found = []
+    pick = [p for p in task.phases if all(_on_box(p.hands.get(h)) for h in hand_names)]
+    if pick:
+        pairs = np.array([_box_pair(p.hands, hand_names, position, yaw) for p in pick])
+        found.append(_stance(tuple(p.name for p in pick), "the box", pairs, position, base, heading_offset))
+    place = [
+        p
+        for p in task.phases[grasp + 1 :]
+        if all(p.hands.get(h) is not None and not isinstance(p.hands[h], RelativeTarget) for h in hand_names)
+    ]
+    if place and goal is not None:
+        pairs = np.array([[p.hands[h] for h in hand_names] for p in place], dtype=float)
+        found.append(_stance(tuple(p.name for p in place), "the box's goal", pairs, goal, base, heading_offset))
+    return found
+
+
+def turned(pairs: np.ndarray, pivot: np.ndarray, angle: float) -> np.ndarray:
+    """Hand targets (..., 3) turned by `angle` [rad] about the vertical through `pivot` (3,)."""
+    c, s = np.cos(angle), np.sin(angle)
+    d = pairs[..., :2] - pivot[:2]
+    out = pairs.copy()
+    out[..., 0], out[..., 1] = pivot[0] + c * d[..., 0] - s * d[..., 1], pivot[1] + s * d[..., 0] + c * d[..., 1]
+    return out
+
+
+def _on_box(target) -> bool:
+    return isinstance(target, RelativeTarget) and target.relative_to == "box"
+
+
+def _box_pair(hands: dict, names: tuple[str, ...], position: np.ndarray, yaw: float) -> np.ndarray:
+    offsets = np.array([hands[h].offset for h in names], dtype=float)
+    return turned(position + offsets, position, yaw)
+
+
+def _stance(phases, pivot_name, pairs, pivot, base, heading_offset) -> Stance:
+    """The written stance's margin and nearest body; the smallest clearing turn (of +-a both clear, the roomier)."""
+    footprint, names = base
+    margins = _margins(pairs, footprint, heading_offset)  # (bodies,)
+    turn = None
+    for size in range(STEP_DEG, MOST_DEG + 1, STEP_DEG):
+        room = {
+            a: _margins(turned(pairs, pivot, np.deg2rad(a)), footprint, heading_offset).min() for a in (size, -size)
+        }
+        best = max(room, key=lambda a: room[a])
+        if room[best] >= 0.0:
+            turn = float(best)
+            break
+    nearest = int(np.argmin(margins))
+    return Stance(phases, pivot_name, float(margins[nearest]), names[nearest], turn)
+
+
+def _margins(pairs: np.ndarray, base: PlannedBase, heading_offset: float) -> np.ndarray:
+    """Per body, the footprint's smallest margin over the stances behind the hand pairs (phases, 2, 3)."""
+    d = pairs[:, 1] - pairs[:, 0]
+    headings = np.arctan2(d[:, 1], d[:, 0]) + heading_offset
+    return base.margins(pairs[:, :, :2].mean(axis=1), headings, np.zeros(len(pairs)))[0].min(axis=1)
