@@ -81,7 +81,7 @@ def test_screen_is_a_lower_bound_of_the_footprint_margin():
     midpoints, headings = rng.uniform(-3.0, 4.0, size=(500, 2)), rng.uniform(-np.pi, np.pi, 500)
     times = rng.uniform(0.0, 4.0, 500)
     margins = base.margins(midpoints, headings, times)[0]
-    bounds = np.array([base.screen(m[None], h[None], t[None]) for m, h, t in zip(midpoints, headings, times)]).T
+    bounds = np.array([base.screen(m[:1], m[1:], h[None], t[None]) for m, h, t in zip(midpoints, headings, times)]).T
     assert (bounds <= margins + 1e-12).all()
     assert (bounds > 0).any() and (margins < 0).any()  # both kinds of sample were drawn
     assert (margins - bounds).min() < 0.1  # and tight where the footprint points at the body

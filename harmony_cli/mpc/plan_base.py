@@ -33,7 +33,7 @@ class PlannedBase:
     _radii: np.ndarray = field(init=False, repr=False)
     _hub: np.ndarray = field(init=False, repr=False)
     _moving: tuple[int, ...] = field(init=False, repr=False)
-    _spread: float = field(init=False, repr=False)
+    _reserve: np.ndarray = field(init=False, repr=False)
 
     @classmethod
     def at_home(cls, circles: np.ndarray, base_pose: np.ndarray, hands: np.ndarray, bodies: list[Obstacle]):
@@ -56,7 +56,8 @@ class PlannedBase:
         spread = np.hypot(*(self.offsets - hub).T) + self.circles[:, 2]
         object.__setattr__(self, "_hub", hub)
         object.__setattr__(self, "_moving", tuple(k for k, b in enumerate(self.bodies) if b.motion is not None))
-        object.__setattr__(self, "_spread", float(spread.max(initial=0.0)))  # its bounding circle's radius
+        # what the screen takes off a body's distance: the footprint's bounding circle, the body's radius, clearance
+        object.__setattr__(self, "_reserve", spread.max(initial=0.0) + self._radii + self._clearances)
 
     def margins(self, midpoints: np.ndarray, headings: np.ndarray, times: np.ndarray, near=None):
         """Per body (those `near`, a mask; all by default) and sample, the smallest margin (>= 0: clear) of any circle
@@ -88,16 +89,16 @@ class PlannedBase:
             centres[k] = self.bodies[k].motion(times)[:, :2]  # type: ignore[misc]
         return centres
 
-    def screen(self, midpoints: np.ndarray, headings: np.ndarray, times: np.ndarray) -> np.ndarray:
-        """Per body, a lower bound of the footprint's margin to it over the `midpoints` (S, 2) and `headings` (S,) at
-        `times`: the distance from the footprint's bounding circle to the body's centre less the body's plan-view
-        radius. A body it puts above 0 has no row to add (most are table legs across the room)."""
+    def screen(self, mx: np.ndarray, my: np.ndarray, headings: np.ndarray, times: np.ndarray) -> np.ndarray:
+        """Per body, a lower bound of the footprint's margin to it over the midpoints (`mx`, `my`: (S,) each) and
+        `headings` (S,) at `times`: the distance from the footprint's bounding circle to the body's centre less the
+        body's plan-view radius. A body it puts above 0 has no row to add (most are table legs across the room)."""
         yaw = self.yaw_home + headings
         c, s = np.cos(yaw), np.sin(yaw)
         ox, oy = self._hub
-        hub = midpoints + np.stack([c * ox - s * oy, s * ox + c * oy], axis=-1)  # (S, 2)
-        gaps = np.sqrt(np.add.reduce((hub[None] - self._centres_at(times)) ** 2, axis=-1)).min(axis=1)
-        return gaps - self._spread - self._radii - self._clearances
+        centres = self._centres_at(times)
+        gaps = np.hypot(mx + (c * ox - s * oy) - centres[..., 0], my + (s * ox + c * oy) - centres[..., 1])
+        return gaps.min(axis=1) - self._reserve
 
     def rows(self, curves, times, weight: float, basis: np.ndarray):
         """The planner's soft rows at the plan's `curves` (7, 1 + S): its fixed start (s = 0), then its S samples (the
@@ -107,12 +108,12 @@ class PlannedBase:
         A body's relief is how far the footprint at either fixed end is inside its clearance: a path cannot do
         better than its ends, and asking it to would bend the hands' path where the whole-body MPC stands the base
         elsewhere anyway."""
-        midpoints = 0.5 * (curves[0:2] + curves[3:5]).T
-        bound = self.screen(midpoints, curves[6], times)
+        mx, my = 0.5 * (curves[0] + curves[3]), 0.5 * (curves[1] + curves[4])
+        bound = self.screen(mx, my, curves[6], times)
         near = bound <= 0.0
         if not near.any():
-            return np.zeros(0), np.zeros((0, 7 * basis.shape[0])), float(bound.min(initial=np.inf))
-        margins, d_mid, d_psi = self.margins(midpoints, curves[6], times, near)
+            return np.zeros(0), np.zeros((0, 7 * basis.shape[0])), float(bound.min())
+        margins, d_mid, d_psi = self.margins(np.column_stack([mx, my]), curves[6], times, near)
         reliefs = np.maximum(-np.minimum(margins[:, 0], margins[:, -1]), 0.0)
         margins, d_mid, d_psi = margins[:, 1:] + reliefs[:, None], d_mid[:, 1:], d_psi[:, 1:]
         body, sample = np.nonzero(margins < 0.0)

@@ -65,6 +65,8 @@ class TaskPlanner:
         self.n_free = int(self.free.sum())
         s = self.s = np.linspace(0.0, 1.0, spec.samples + 1)[1:]  # obstacle and facing samples (s = 0 is fixed)
         self.B = bernstein_basis(M, s)  # (S, M)
+        self._s_start = np.r_[0.0, s]
+        self._B_start = bernstein_basis(M, self._s_start)  # the start too (the base's reliefs)
         D1, D2 = difference_matrix(M, 1), difference_matrix(M, 2)
         eye = np.eye(ROWS)
         w = spec.weights
@@ -227,8 +229,10 @@ class TaskPlanner:
         np.add(self._J.T @ self._J, self._ridge, out=self._H)
         args["g"][:] = self._J.T @ self._r
         if self.base is not None:  # its active rows only (usually none): the same sums as zero rows in J, less work
-            ends_too, times = np.column_stack([C[:, 0], curves]), t + T * np.r_[0.0, self.s]  # its start, then samples
-            r, J, self._base_margin = self.base.rows(ends_too, times, self.spec.weights.base, self.B_free)
+            with_start = C @ self._B_start.T  # its fixed start (s = 0), then the samples
+            r, J, self._base_margin = self.base.rows(
+                with_start, t + T * self._s_start, self.spec.weights.base, self.B_free
+            )
             if len(r):
                 self._H += J.T @ J
                 args["g"][:] += J.T @ r
