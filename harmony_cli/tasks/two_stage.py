@@ -51,7 +51,7 @@ class TaskReferences:
         hands = np.array([p0, p1])
         base = _planned_base(scenario, robot.home[list(robot.base_joints)], hands, obstacles)
         self.planner = TaskPlanner(scenario.planner, obstacles, self.home_rotations, offset, _ground(scenario), base)
-        self.stances = _stances(scenario, robot, hands, offset)
+        self.stances = _stances(scenario, robot, hands, offset, obstacles)
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
         box = scenario.world.box
         self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
@@ -141,29 +141,34 @@ def _ground(scenario: Scenario) -> Ground | None:
 def _planned_base(
     scenario: Scenario, base_pose: np.ndarray, hands: np.ndarray, obstacles: list[Obstacle]
 ) -> PlannedBase | None:
-    """The footprint as the planner carries it behind the hands (None: no footprint, or nothing to clear), kept
-    clear of what the whole-body MPC keeps it clear of: every obstacle (the hands' `obstacles`, in scenario order)
-    by its margin, every table leg by the base's margin."""
+    """The footprint as the planner carries it behind the hands (None: no footprint, or nothing to clear)."""
     circles = np.asarray(scenario.robot.footprint, dtype=float).reshape(-1, 3)
-    if len(circles) == 0:
-        return None
+    bodies, _ = _base_bodies(scenario, obstacles)
+    return PlannedBase.at_home(circles, base_pose, hands, bodies) if len(circles) and bodies else None
+
+
+def _base_bodies(scenario: Scenario, obstacles: list[Obstacle]) -> tuple[list[Obstacle], list[str]]:
+    """What the footprint keeps clear of, as the whole-body MPC does, and their names: every obstacle (the hands'
+    `obstacles`, in scenario order) by its margin, every table leg by the base's."""
     bodies = [replace(ob, clearance=o.margin) for o, ob in zip(scenario.world.obstacles, obstacles)]
-    bodies += [Obstacle(leg, scenario.robot.base_margin) for t in scenario.world.tables for leg in table_legs(t)]
-    return PlannedBase.at_home(circles, base_pose, hands, bodies) if bodies else None
+    names = [f"obstacle {o.name}" for o in scenario.world.obstacles]
+    for table in scenario.world.tables:
+        legs = table_legs(table)
+        bodies += [Obstacle(leg, scenario.robot.base_margin) for leg in legs]
+        names += [f"table {table.name}'s leg"] * len(legs)
+    return bodies, names
 
 
-def _stances(scenario: Scenario, robot: Robot, hands: np.ndarray, heading_offset: float) -> list[Stance]:
-    """Where the base stands to grip and to place as written (stance.py), among the static bodies."""
+def _stances(
+    scenario: Scenario, robot: Robot, hands: np.ndarray, heading_offset: float, obstacles: list[Obstacle]
+) -> list[Stance]:
+    """Where the base stands to grip and to place as written (stance.py), among the bodies that stand still."""
     box, circles = scenario.world.box, np.asarray(scenario.robot.footprint, dtype=float).reshape(-1, 3)
     if scenario.task is None or box is None or len(circles) == 0:
         return []
-    static = [o for o in scenario.world.obstacles if o.motion is None]
-    bodies = [Obstacle(obstacle_shape(o), o.margin) for o in static]
-    names = [f"obstacle {o.name}" for o in static]
-    for table in scenario.world.tables:
-        bodies += [Obstacle(leg, scenario.robot.base_margin) for leg in table_legs(table)]
-        names += [f"table {table.name}'s leg"] * len(table_legs(table))
-    footprint = PlannedBase.at_home(circles, robot.home[list(robot.base_joints)], hands, bodies)
+    bodies, names = _base_bodies(scenario, obstacles)
+    still = [k for k, body in enumerate(bodies) if body.motion is None]
+    footprint = PlannedBase.at_home(circles, robot.home[list(robot.base_joints)], hands, [bodies[k] for k in still])
     goal = None if box.goal is None else np.asarray(box.goal, dtype=float)
     where = (np.asarray(box.position, dtype=float), float(np.deg2rad(box.yaw_deg)), goal)
-    return stances(scenario.task, robot.hand_names, where, (footprint, names), heading_offset)
+    return stances(scenario.task, robot.hand_names, where, (footprint, [names[k] for k in still]), heading_offset)
