@@ -134,23 +134,21 @@ def test_a_hand_starting_inside_two_margins_that_pull_apart_gets_a_plan_that_nev
     np.testing.assert_allclose(positions[-1], GOAL, atol=1e-9)
 
 
-def test_plan_view_distances_of_every_body_at_once_equal_each_shape_s_own_distance():
-    # plan_base's vectorised distances against maths/shapes.py's Shape.distance, box and cylinder, in and outside
-    from harmony_cli.mpc.plan_base import _plan_distances
+def test_plan_view_distances_equal_each_shape_s_own_distance():
+    # plan_base's plan-view distance against maths/shapes.py's Shape.distance, box and cylinder, in and outside
+    from harmony_cli.mpc.plan_base import _plan_distance
 
     rng = np.random.default_rng(3)
     shapes = [
         Shape("box", np.array([0.5, -1.0, 0.5]), 0.4, np.array([0.3, 0.2, 0.5])),
         Shape("cylinder", np.array([1.0, 0.3, 1.0]), 0.0, np.array([0.6, 0.6, 1.0])),
     ]
-    points = rng.uniform(-1.5, 2.0, size=(40, 1, 2))
-    centres = np.array([[s.centre[:2]] for s in shapes])
-    dist, grad = _plan_distances(
-        points, centres, np.array([s.yaw for s in shapes]), np.array([s.half[:2] for s in shapes]), np.array([0, 1])
-    )
-    for k, shape in enumerate(shapes):
-        flat = np.column_stack([points[:, 0], np.full(40, shape.centre[2])])
-        expected, expected_grad = shape.distance(flat)
+    points = rng.uniform(-1.5, 2.0, size=(40, 2))
+    for shape in shapes:
+        dist, gx, gy = _plan_distance(
+            points[:, 0:1], points[:, 1:2], shape.centre[None, :2], shape.yaw, shape.half[:2], shape.kind != "box"
+        )
+        expected, expected_grad = shape.distance(np.column_stack([points, np.full(40, shape.centre[2])]))
         assert (expected < 0).any() and (expected > 0).any()
-        np.testing.assert_allclose(dist[k, :, 0], expected, atol=1e-12)
-        np.testing.assert_allclose(grad[k, :, 0], expected_grad[:, :2], atol=1e-12)
+        np.testing.assert_allclose(dist[:, 0], expected, atol=1e-12)
+        np.testing.assert_allclose(np.column_stack([gx[:, 0], gy[:, 0]]), expected_grad[:, :2], atol=1e-12)
