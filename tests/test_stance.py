@@ -80,9 +80,12 @@ def test_a_cylinder_beside_the_pick_stance_is_named_for_the_grip_phases():
 
 
 def test_a_failed_run_s_reason_in_a_study_carries_its_stance_warning():
-    from harmony_cli.study.table import _task_reason
+    from harmony_cli.study.table import _reason
 
     task = {"failure": {"category": "dropped", "reason": "the box fell"}}
-    assert _task_reason({"task": task, "stance_warning": "stance: x"}) == "the box fell; stance: x"
-    assert _task_reason({"task": task, "stance_warning": None}) == "the box fell"
-    assert _task_reason({"task": {"failure": None}, "stance_warning": "stance: x"}) is None
+    assert _reason({"task": task, "stance_warning": "stance: x"}) == "the box fell; stance: x"
+    assert _reason({"task": task, "stance_warning": None}) == "the box fell"
+    assert _reason({"status": "failed", "reason": "planner failed", "stance_warning": "stance: x"}) == (
+        "planner failed; stance: x"
+    )
+    assert _reason({"task": {"failure": None}, "stance_warning": "stance: x"}) is None

@@ -64,7 +64,7 @@ def run_row(run: PlannedRun, run_dir: Path) -> dict[str, Any]:
         "failure": summary.get("failure"),
         "outcome": result,
         "success": result == "success" if summary.get("status") not in NOT_RUN else None,
-        "reason": summary.get("reason") or summary.get("error") or _task_reason(summary),
+        "reason": _reason(summary),
         "resamples": len(run.sample.rejected),
     }
     row |= {f"grid.{k}": v for k, v in run.point.items()}
@@ -86,9 +86,11 @@ def write_table(rows: list[dict[str, Any]], path: Path) -> pd.DataFrame:
     return table
 
 
-def _task_reason(summary: dict) -> str | None:
-    """A failed task's reason, with the written stance's warning when there is one (what to change first)."""
-    reason = ((summary.get("task") or {}).get("failure") or {}).get("reason")
+def _reason(summary: dict) -> str | None:
+    """Why a run did not succeed (the run's fault, or its task's failure), with the written stance's warning when
+    there is one (what to change first); None when it succeeded."""
+    reason = summary.get("reason") or summary.get("error")
+    reason = reason or ((summary.get("task") or {}).get("failure") or {}).get("reason")
     if reason and summary.get("stance_warning"):
         return f"{reason}; {summary['stance_warning']}"
     return reason
