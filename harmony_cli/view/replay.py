@@ -12,6 +12,7 @@ import numpy as np
 import viser
 import viser.uplot as uplot
 
+from harmony_cli.sim.video import frame_every
 from harmony_cli.view.run_data import RunData
 from harmony_cli.view.scene import RunScene
 
@@ -93,7 +94,7 @@ class Replay:
 
     def play(self, stop: threading.Event) -> None:
         """Advance the slider while `play` is ticked, at the chosen speed, until `stop`."""
-        dt = float(np.median(np.diff(self.times))) if len(self.times) > 1 else 0.02
+        dt = self.runs[0].control_dt
         while not stop.is_set():
             if self.playing.value:
                 speed = float(self.speed.value.rstrip("x"))
@@ -104,8 +105,8 @@ class Replay:
     def export(self, path: Path, fps: float = EXPORT_FPS) -> Path:
         """One .html holding viser's client and the whole replay (every run, `fps` frames per simulated second)."""
         serializer = self.server.get_scene_serializer()
-        dt = float(np.median(np.diff(self.times))) if len(self.times) > 1 else 0.02
-        every = max(1, round(1.0 / (fps * dt)))
+        dt = self.runs[0].control_dt
+        every = frame_every(dt, fps)
         for i in range(0, len(self.times), every):
             self.show(i)
             serializer.insert_sleep(every * dt)

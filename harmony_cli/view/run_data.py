@@ -38,6 +38,11 @@ class RunData:
     def times(self) -> np.ndarray:
         return self.steps["t"].to_numpy()
 
+    @property
+    def control_dt(self) -> float:
+        """[s] between two logged steps (every control step is logged)."""
+        return self.scenario.sim.control_dt
+
     def joints(self, i: int) -> dict[str, float]:
         """The measured joint positions at step i, by joint name."""
         row = self.steps.iloc[i]

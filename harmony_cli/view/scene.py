@@ -10,7 +10,7 @@ import viser
 import yourdfpy
 from viser.extras import ViserUrdf
 
-from harmony_cli.maths.bezier import bernstein_basis
+from harmony_cli.maths.bezier import evaluate
 from harmony_cli.maths.shapes import table_legs
 from harmony_cli.view.run_data import RunData
 
@@ -42,6 +42,7 @@ class RunScene:
         self.fk = yourdfpy.URDF.load(str(run.urdf), load_meshes=False, build_scene_graph=True)  # for the knots
         self.names = self.robot.get_actuated_joint_names()
         self.grasp = [run.scenario.robot.end_effectors[h] for h in run.hands]
+        self.joint_names = [c[2:] for c in run.steps.columns if c.startswith("q_")]  # knot_q's columns
         self.opacity = None if tint is None else 0.6
         self._world()
         self._paths()
@@ -109,8 +110,7 @@ class RunScene:
             return
         start, horizon = span[i]
         now = np.clip((self.run.times[i] - start) / horizon, 0.0, 1.0)  # what is left of the plan
-        basis = bernstein_basis(points.shape[2], np.linspace(now, 1.0, PLAN_SAMPLES))  # (samples, M)
-        values = points[i].astype(float) @ basis.T  # (7, samples): both hands' xyz, then the heading
+        values = evaluate(points[i], np.linspace(now, 1.0, PLAN_SAMPLES))  # (7, samples): hands' xyz, heading
         segments = np.concatenate([_path(values[3 * h : 3 * h + 3].T) for h in range(2)])
         self.server.scene.add_line_segments(f"{self.root}/plan", segments, PLAN, thickness=0.012)
 
@@ -119,10 +119,9 @@ class RunScene:
         knot_q = self.run.arrays.get("knot_q")
         if knot_q is None or i >= len(knot_q):
             return
-        names = [c[2:] for c in self.run.steps.columns if c.startswith("q_")]
         points = []
         for q in knot_q[i]:
-            joints = dict(zip(names, q.astype(float)))
+            joints = dict(zip(self.joint_names, q.astype(float)))
             self.fk.update_cfg(np.array([joints.get(n, 0.0) for n in self.fk.actuated_joint_names]))
             points += [self.fk.get_transform(link)[:3, 3] for link in self.grasp]
         self.server.scene.add_point_cloud(

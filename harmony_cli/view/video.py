@@ -30,7 +30,7 @@ def render_video(run: RunData, path: Path, fps: float = FPS, size: tuple[int, in
         world = World(client, run.scenario.world)
         x, y = run.base_xy()
         box_pose = run.arrays.get("box_pose")
-        dt = float(np.median(np.diff(run.times))) if len(run.times) > 1 else run.scenario.sim.control_dt
+        dt = run.control_dt
         shown = [0]  # the step being drawn: the camera follows its base
         follow = lambda: np.array([x[shown[0]], y[shown[0]], 0.6])
         with VideoRecorder(client, path, fps=fps, size=size, follow=follow) as video:
