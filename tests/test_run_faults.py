@@ -145,8 +145,8 @@ def test_a_planner_exception_or_nan_plan_holds_its_last_plan(monkeypatch, tmp_pa
     nan_now = [False]
 
     def nan_sqp(self, *args):  # the QP's step: NaN while nan_now
-        step, clearance, status = real_sqp(self, *args)
-        return (np.full_like(step, np.nan) if nan_now[0] and step is not None else step), clearance, status
+        step, *rest = real_sqp(self, *args)
+        return (np.full_like(step, np.nan) if nan_now[0] and step is not None else step), *rest
 
     def planned(self, *args, **kwargs):
         n = next(count)

@@ -72,15 +72,16 @@ class PlannedBase:
         px, py = midpoints[:, 0] + wx, midpoints[:, 1] + wy
         centres = np.broadcast_to(self._centres_at(times), (len(self.bodies), len(times), 2))
         columns = np.arange(len(times))
-        margins, grads, d_psi = np.empty((len(picked), len(times))), np.empty((len(picked), len(times), 2)), []
+        margins, d_psi = np.empty((len(picked), len(times))), np.empty((len(picked), len(times)))
+        grads = np.empty((len(picked), len(times), 2))
         for i, k in enumerate(picked):
             dist, gx, gy = _plan_distance(px, py, centres[k], self._yaws[k], self._halves[k], self._round[k])
             margin = dist - self.circles[:, 2:3]
             nearest = np.argmin(margin, axis=0)  # (S,): the circle that matters at each sample
             margins[i] = margin[nearest, columns] - self._clearances[k]
             grads[i, :, 0], grads[i, :, 1] = gx[nearest, columns], gy[nearest, columns]
-            d_psi.append(grads[i, :, 1] * wx[nearest, columns] - grads[i, :, 0] * wy[nearest, columns])
-        return margins, grads, np.array(d_psi).reshape(len(picked), len(times))
+            d_psi[i] = grads[i, :, 1] * wx[nearest, columns] - grads[i, :, 0] * wy[nearest, columns]
+        return margins, grads, d_psi
 
     def _centres_at(self, times: np.ndarray) -> np.ndarray:
         """(bodies, S, 2), or (bodies, 1, 2) when none moves: where each body stands at `times` (S,)."""

@@ -107,7 +107,6 @@ class TaskPlanner:
         self._J_face, self._J_width = columns[:, :, n_lin : n_lin + S], columns[:, :, n_lin + S : n_lin + 2 * S]
         self._r, self._ridge = np.zeros(n_rows), 1e-9 * np.eye(self.n_free)
         self._reliefs = np.zeros(len(self.obstacles))  # per obstacle, its clearance lowered to the goal's
-        self._base_margin = np.inf  # the footprint's smallest margin at the last linearisation
         self._relief_key: tuple | None = None
         self._H, rows = args["h"].reshape(self.n_free, -1).T, args["a"].reshape(self.n_free, -1)
         rows.T[: self.n_keep] = self.A[self.keep][:, free]
@@ -175,13 +174,13 @@ class TaskPlanner:
     def _solve(self, C: np.ndarray, t: float, T: float, ends: Ends, iterations: int, carried, width: float) -> Solved:
         """Gauss-Newton SQP from `C` (changed in place) towards `ends` = (state, goal, goal heading)."""
         state, goal, heading_goal = ends
-        status, success, clearance, it = "max_iter", True, np.inf, 0
+        status, success, clearance, base_clearance, it = "max_iter", True, np.inf, np.inf, 0
         # the measured start may not allow reaching the goal at rest within the rate bounds by the phase's end
         # (the hands lag, the phase is short): then the plan takes longer, and says so. Last, the clearance rows
         # violated now (the hands already inside a margin, linearisations that contradict) ask only not to get worse
         for relaxed, stretch in [(r, s) for r in (False, True) for s in STRETCHES]:
             self._fixed(C, state, goal, heading_goal, T * stretch)
-            step, clearance, status = self._sqp_step(C, t, T * stretch, carried, width, relaxed)
+            step, clearance, base_clearance, status = self._sqp_step(C, t, T * stretch, carried, width, relaxed)
             if step is not None:
                 break
         T *= stretch
@@ -189,7 +188,7 @@ class TaskPlanner:
         suffix += " (clearance relaxed)" if relaxed else ""
         for it in range(1, iterations + 1):
             if it > 1:
-                step, clearance, status = self._sqp_step(C, t, T, carried, width, relaxed)
+                step, clearance, base_clearance, status = self._sqp_step(C, t, T, carried, width, relaxed)
             if step is None:
                 success = False
                 break
@@ -197,7 +196,7 @@ class TaskPlanner:
             if np.abs(step).max() < self.spec.tol:
                 status = "converged"
                 break
-        return Solved(C, T, success, status + suffix, it, clearance, stretch, self._base_margin)
+        return Solved(C, T, success, status + suffix, it, clearance, stretch, base_clearance)
 
     def _straight(self, ends: Ends) -> np.ndarray:
         """Control points from the measured hands and heading straight to the goal's."""
@@ -221,16 +220,18 @@ class TaskPlanner:
 
     def _sqp_step(self, C: np.ndarray, t: float, T: float, carried, width: float, relaxed: bool = False):
         """One Gauss-Newton QP over the free control points of the plan over [t, t + T]: (step or None, predicted
-        clearance, status); `relaxed`: a clearance row violated now asks only not to get worse."""
+        clearance, the base footprint's predicted margin, status); `relaxed`: a clearance row violated now asks only
+        not to get worse."""
         x, args = C.ravel(), self.qp.args
         curves = C @ self.B.T  # (7, S)
         self._pose_residuals(curves, width)
         self._r[: self.n_lin] = self.J_lin @ x
         np.add(self._J.T @ self._J, self._ridge, out=self._H)
         args["g"][:] = self._J.T @ self._r
+        base_clearance = np.inf
         if self.base is not None:  # its active rows only (usually none): the same sums as zero rows in J, less work
             with_start = C @ self._B_start.T  # its fixed start (s = 0), then the samples
-            r, J, self._base_margin = self.base.rows(
+            r, J, base_clearance = self.base.rows(
                 with_start, t + T * self._s_start, self.spec.weights.base, self.B_free
             )
             if len(r):
@@ -245,8 +246,8 @@ class TaskPlanner:
         out = self.qp()
         stats = self.qp.stats()
         if stats["success"]:
-            return out["x"].copy(), clearance, "rti_step"
-        return None, clearance, f"qp_failed: {stats.get('return_status', '?')}"
+            return out["x"].copy(), clearance, base_clearance, "rti_step"
+        return None, clearance, base_clearance, f"qp_failed: {stats.get('return_status', '?')}"
 
     def _pose_residuals(self, curves: np.ndarray, width: float) -> None:
         """Residuals at the samples and their Jacobians (free columns), into the rows after the linear ones: facing

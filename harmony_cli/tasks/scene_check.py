@@ -134,7 +134,7 @@ class SceneCheck:
             (phase.name, h, label, target)
             for phase in scenario.task.phases
             for h, label in enumerate(robot.end_effectors)
-            if (target := _target_position(phase.hands.get(label), scenario)) is not None
+            if (target := target_position(phase.hands.get(label), scenario)) is not None
         ]
         circles = np.asarray(robot.footprint, dtype=float).reshape(-1, 3)
         passage = None
@@ -209,7 +209,8 @@ def _static_outlines(scenario: Scenario) -> list[tuple[Shape, float]]:
     return shapes + [(leg, scenario.robot.base_margin) for leg in legs]
 
 
-def _target_position(target, scenario: Scenario) -> np.ndarray | None:
+def target_position(target, scenario: Scenario) -> np.ndarray | None:
+    """A hand target's world position as the scenario writes it (relative ones from where the box starts)."""
     if target is None:
         return None
     if not isinstance(target, RelativeTarget):

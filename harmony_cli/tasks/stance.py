@@ -16,7 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from harmony_cli.mpc.plan_base import PlannedBase
-from harmony_cli.scenario.task import RelativeTarget, TaskSpec
+from harmony_cli.scenario import Scenario
+from harmony_cli.scenario.task import RelativeTarget
+from harmony_cli.tasks.scene_check import target_position
 
 STEP_DEG, MOST_DEG = 15, 90  # turns tried: +-15, +-30, ... +-90 deg (a grip from behind the box is not one)
 # [m] how far inside a margin a written stance may be without a warning: the whole-body MPC stands the base where
@@ -51,32 +53,27 @@ class Stance:
 
 
 def stances(
-    task: TaskSpec,
-    hand_names: tuple[str, ...],
-    box: tuple[np.ndarray, float, np.ndarray | None],
-    base: tuple[PlannedBase, list[str]],
-    heading_offset: float,
+    scenario: Scenario, hand_names: tuple[str, ...], base: tuple[PlannedBase, list[str]], heading_offset: float
 ) -> list[Stance]:
-    """The grip's and the place's stances (none without a grasp phase or two hands; no place without a goal).
-    `box`: its position (3,), yaw [rad] and goal (3,) or None as the scenario writes them; `base`: the footprint with
-    the static bodies it keeps clear of, and their names; `heading_offset`: the planner's (heading 0 at home)."""
-    grasp = next((i for i, p in enumerate(task.phases) if p.grasp), None)
-    if grasp is None or len(hand_names) != 2:
+    """The grip's and the place's stances (none without a box, a grasp phase or two hands; no place without a
+    goal), the targets where the scenario writes them. `base`: the footprint with the bodies it keeps clear of, and
+    their names; `heading_offset`: the planner's (heading 0 at home)."""
+    task, box = scenario.task, scenario.world.box
+    grasp = None if task is None else next((i for i, p in enumerate(task.phases) if p.grasp), None)
+    if task is None or box is None or grasp is None or len(hand_names) != 2:
         return []
-    position, yaw, goal = box
-    found = []
     pick = [p for p in task.phases if all(_on_box(p.hands.get(h)) for h in hand_names)]
-    if pick:
-        pairs = np.array([_box_pair(p.hands, hand_names, position, yaw) for p in pick])
-        found.append(_stance(tuple(p.name for p in pick), "the box", pairs, position, base, heading_offset))
     place = [
         p
         for p in task.phases[grasp + 1 :]
         if all(p.hands.get(h) is not None and not isinstance(p.hands[h], RelativeTarget) for h in hand_names)
     ]
-    if place and goal is not None:
-        pairs = np.array([[p.hands[h] for h in hand_names] for p in place], dtype=float)
-        found.append(_stance(tuple(p.name for p in place), "the box's goal", pairs, goal, base, heading_offset))
+    found = []
+    for group, pivot_name, pivot in ((pick, "the box", box.position), (place, "the box's goal", box.goal)):
+        if group and pivot is not None:
+            pairs = np.array([[target_position(p.hands[h], scenario) for h in hand_names] for p in group])
+            names = tuple(p.name for p in group)
+            found.append(_stance(names, pivot_name, pairs, np.asarray(pivot, dtype=float), base, heading_offset))
     return found
 
 
@@ -91,11 +88,6 @@ def turned(pairs: np.ndarray, pivot: np.ndarray, angle: float) -> np.ndarray:
 
 def _on_box(target) -> bool:
     return isinstance(target, RelativeTarget) and target.relative_to == "box"
-
-
-def _box_pair(hands: dict, names: tuple[str, ...], position: np.ndarray, yaw: float) -> np.ndarray:
-    offsets = np.array([hands[h].offset for h in names], dtype=float)
-    return turned(position + offsets, position, yaw)
 
 
 def _stance(phases, pivot_name, pairs, pivot, base, heading_offset) -> Stance:

@@ -163,12 +163,10 @@ def _stances(
     scenario: Scenario, robot: Robot, hands: np.ndarray, heading_offset: float, obstacles: list[Obstacle]
 ) -> list[Stance]:
     """Where the base stands to grip and to place as written (stance.py), among the bodies that stand still."""
-    box, circles = scenario.world.box, np.asarray(scenario.robot.footprint, dtype=float).reshape(-1, 3)
-    if scenario.task is None or box is None or len(circles) == 0:
+    circles = np.asarray(scenario.robot.footprint, dtype=float).reshape(-1, 3)
+    if len(circles) == 0:
         return []
     bodies, names = _base_bodies(scenario, obstacles)
     still = [k for k, body in enumerate(bodies) if body.motion is None]
     footprint = PlannedBase.at_home(circles, robot.home[list(robot.base_joints)], hands, [bodies[k] for k in still])
-    goal = None if box.goal is None else np.asarray(box.goal, dtype=float)
-    where = (np.asarray(box.position, dtype=float), float(np.deg2rad(box.yaw_deg)), goal)
-    return stances(scenario.task, robot.hand_names, where, (footprint, [names[k] for k in still]), heading_offset)
+    return stances(scenario, robot.hand_names, (footprint, [names[k] for k in still]), heading_offset)
