@@ -79,12 +79,12 @@ def test_a_cylinder_beside_the_pick_stance_is_named_for_the_grip_phases():
         assert _base_gap(scenario, robot, turned(squeeze, box, np.deg2rad(grip.turn_deg))) > -1e-9
 
 
-def test_a_failed_run_s_reason_in_a_study_carries_its_stance_warning():
+def test_a_failed_run_s_reason_in_a_study_carries_its_task_warning_or_an_older_run_s_stance_warning():
     from harmony_cli.study.table import _reason
 
     task = {"failure": {"category": "dropped", "reason": "the box fell"}}
-    assert _reason({"task": task, "stance_warning": "stance: x"}) == "the box fell; stance: x"
-    assert _reason({"task": task, "stance_warning": None}) == "the box fell"
+    assert _reason({"task": task, "task_warning": "stance: x"}) == "the box fell; stance: x"
+    assert _reason({"task": task, "task_warning": None}) == "the box fell"
     assert _reason({"status": "failed", "reason": "planner failed", "stance_warning": "stance: x"}) == (
         "planner failed; stance: x"
     )

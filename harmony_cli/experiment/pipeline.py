@@ -98,25 +98,27 @@ def describe(scenario: Scenario, built: Built) -> dict:
         "decision_label": mpc.transcription.decision_label,
         "n_dof": built.robot.n_dof,
         "build_time_s": mpc.build_time,
-        "stance_warning": "; ".join(stance_warnings(built)) or None,
+        "task_warning": "; ".join(task_warnings(built)) or None,
     }
 
 
 def _notes(scenario: Scenario, scenario_dir: Path, built: Built, progress: bool) -> list[str]:
-    """What run.log says before the loop: the robot's and the simulation's notes, the written stances' warnings
+    """What run.log says before the loop: the robot's and the simulation's notes, the written task's warnings
     (on the console too when it shows progress: before the robot moves; a study says them in its report)."""
-    stances = stance_warnings(built)
+    written = task_warnings(built)
     if progress:
-        warn(stances)
+        warn(written)
     notes = robot_warnings(scenario, scenario_dir) + list(built.robot.notes) + built.sim.notes
-    return notes + [f"warning: {line}" for line in stances]
+    return notes + [f"warning: {line}" for line in written]
 
 
-def stance_warnings(built: Built) -> list[str]:
-    """Written grip and place stances that leave the base inside a margin (tasks/stance.py), a line each."""
+def task_warnings(built: Built) -> list[str]:
+    """A line each: written grip and place stances that leave the base inside a margin (tasks/stance.py), hand
+    targets above what the arms reach together (robot/reach.py)."""
     if not isinstance(built.references, TaskReferences):
         return []
-    return [w for stance in built.references.stances if (w := stance.warning()) is not None]
+    stances = [w for stance in built.references.stances if (w := stance.warning()) is not None]
+    return stances + built.references.reach_warnings
 
 
 def solver_paths(built: Built) -> dict[str, str]:

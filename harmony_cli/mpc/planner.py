@@ -11,12 +11,13 @@ clearance, linearised at the current plan, where the obstacle is at that time. G
 control points, one DAQP QP per iteration: `phase_iterations` at a phase change, `iterations` (1: real-time
 iteration) on every other step; the horizon is stretched when the bounds cannot be met by the phase's end.
 
-The base follows the hands: soft rows keep its footprint, carried behind the hands as at home, clear of the
-obstacles and table legs (plan_base.py). Global guidance: a local SQP linearised at the straight line cannot find
-its way round an obstacle on it (the distance gradient points along the path) and may split the hands round it.
-When a phase's first plan fails, does not converge, misses a clearance or splits the hands, and when a re-plan
-fails, the SQP runs again from the straight line moved onto the shortest planar route around the obstacles and
-tables, wide enough for the base (plan_seed.py, route.py), taken if it ranks higher (status "... (route)").
+Hands below the arms' reach with the pads level (robot/reach.py): a bound on the z control points. The base follows
+the hands: soft rows keep its footprint, carried behind the hands as at home, clear of the obstacles and table legs
+(plan_base.py). Global guidance: a local SQP linearised at the straight line cannot find its way round an obstacle
+on it (the distance gradient points along it). When a phase's first plan fails, does not converge, misses a
+clearance or splits the hands, and when a re-plan fails, the SQP runs again from the straight line moved onto the
+shortest planar route around obstacles and tables, wide enough for the base (plan_seed.py, route.py), taken if it
+ranks higher (status "... (route)").
 """
 
 from __future__ import annotations
@@ -53,9 +54,10 @@ class TaskPlanner:
         heading_offset: float,
         ground: Ground | None = None,
         base: PlannedBase | None = None,
+        ceiling: float | None = None,
     ):
         self.spec, self.obstacles, self.home_rotations, self.ground = spec, obstacles, home_rotations, ground
-        self.base = base
+        self.base, self.ceiling = base, np.inf if ceiling is None else ceiling  # [m] the hands' highest (reach.py)
         self.heading_offset = heading_offset  # heading = angle(p_1 - p_0) + offset (pads face each other)
         # the pads face along h(heading + this): 0 when home faces +x, the home's own yaw when it does not
         self.facing_shift = np.pi / 2 - heading_offset
@@ -106,6 +108,8 @@ class TaskPlanner:
         columns = self._J.T.reshape(ROWS, -1, n_rows)
         self._J_face, self._J_width = columns[:, :, n_lin : n_lin + S], columns[:, :, n_lin + S : n_lin + 2 * S]
         self._r, self._ridge = np.zeros(n_rows), 1e-9 * np.eye(self.n_free)
+        self._heights = np.isin(np.nonzero(self.free)[0], (2, 5))  # the hands' z among the free variables
+        self._height_index = np.flatnonzero(free)[self._heights]  # and in C.ravel()
         self._reliefs = np.zeros(len(self.obstacles))  # per obstacle, its clearance lowered to the goal's
         self._relief_key: tuple | None = None
         self._H, rows = args["h"].reshape(self.n_free, -1).T, args["a"].reshape(self.n_free, -1)
@@ -241,6 +245,7 @@ class TaskPlanner:
         Ax = (self.A @ x)[self.keep]
         args["lba"][: self.n_keep], args["uba"][: self.n_keep] = -limit - Ax, limit - Ax
         clearance = self._clearance_rows(curves, t, T, carried)
+        args["ubx"][self._heights] = self.ceiling - x[self._height_index]  # curves in their control points' hull
         if relaxed:
             np.minimum(args["lba"][self.n_keep :], 0.0, out=args["lba"][self.n_keep :])
         out = self.qp()

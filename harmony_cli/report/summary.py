@@ -23,3 +23,8 @@ def summarise_run(
     if scenario.pushes:
         outcome["pushes"] = push_outcome(steps, scenario.pushes, hands, pushed_hands)
     return summary
+
+
+def task_warning(summary: dict) -> str | None:
+    """The written task's warnings of a summary.json (`stance_warning` in runs before the reach was checked)."""
+    return summary.get("task_warning") or summary.get("stance_warning")

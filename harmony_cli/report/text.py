@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from harmony_cli.report.metrics import baseline_peak
+from harmony_cli.report.summary import task_warning
 
 
 def fmt(v: float | None, unit: str, scale: float = 1.0, missing: str = "-", digits: int = 2) -> str:
@@ -30,8 +31,8 @@ def run_lines(run_dir: Path, summary: dict) -> list[str]:
         )
         if task.get("failure"):
             lines.append(f"task failed ({task['failure']['category']}): {task['failure']['reason']}")
-        if summary.get("stance_warning"):
-            lines.append(f"warning: {summary['stance_warning']}")
+        if written := task_warning(summary):
+            lines.append(f"warning: {written}")
         for name, c in task.get("min_clearance_moving_m", {}).items():
             clearances = ", ".join(f"{who} {v:.3f} m" for who, v in c.items())
             lines.append(f"moving obstacle {name}: min clearance {clearances}")

@@ -4,38 +4,25 @@ takes ~0.3 s to import and build the model: a warm run needs neither)."""
 
 from __future__ import annotations
 
-import hashlib
-import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from harmony_cli.cache import CACHE_DIR
+from harmony_cli.cache import cached_json
 from harmony_cli.capture import captured_output
 
 
 def gravity_torques(urdf: Path, joint_names: tuple[str, ...], q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per joint of `joint_names` at `q` (that order): the torque [N m | N] holding the robot against gravity and
     the URDF's effort limit."""
-    key = hashlib.sha256(urdf.read_bytes() + repr((tuple(joint_names), np.asarray(q).tolist())).encode())
-    cached = CACHE_DIR / "gravity" / f"{key.hexdigest()[:24]}.json"
-    try:
-        values = json.loads(cached.read_text())
-        return np.array(values["torque"], dtype=float), np.array(values["effort"], dtype=float)
-    except (OSError, ValueError, KeyError, TypeError):
-        pass
-    torque, effort = _pinocchio_gravity(urdf, joint_names, q)
-    try:
-        cached.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=cached.parent, suffix=".tmp")
-        with os.fdopen(fd, "w") as out:
-            json.dump({"torque": torque.tolist(), "effort": effort.tolist()}, out)  # floats round-trip exactly
-        os.replace(tmp, cached)
-    except OSError:
-        pass  # a read-only cache: computed again next time
-    return torque, effort
+    key = urdf.read_bytes() + repr((tuple(joint_names), np.asarray(q).tolist())).encode()
+
+    def compute() -> dict:
+        torque, effort = _pinocchio_gravity(urdf, joint_names, q)
+        return {"torque": torque.tolist(), "effort": effort.tolist()}
+
+    values = cached_json("gravity", key, compute)
+    return np.array(values["torque"], dtype=float), np.array(values["effort"], dtype=float)
 
 
 def _pinocchio_gravity(urdf: Path, joint_names: tuple[str, ...], q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

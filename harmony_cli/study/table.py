@@ -10,6 +10,7 @@ from typing import Any
 
 import pandas as pd
 
+from harmony_cli.report.summary import task_warning
 from harmony_cli.report.task_failure import failure_category
 from harmony_cli.study.plan import PlannedRun
 
@@ -87,10 +88,10 @@ def write_table(rows: list[dict[str, Any]], path: Path) -> pd.DataFrame:
 
 
 def _reason(summary: dict) -> str | None:
-    """Why a run did not succeed (the run's fault, or its task's failure), with the written stance's warning when
+    """Why a run did not succeed (the run's fault, or its task's failure), with the written task's warnings when
     there is one (what to change first); None when it succeeded."""
     reason = summary.get("reason") or summary.get("error")
     reason = reason or ((summary.get("task") or {}).get("failure") or {}).get("reason")
-    if reason and summary.get("stance_warning"):
-        return f"{reason}; {summary['stance_warning']}"
+    if reason and (written := task_warning(summary)):
+        return f"{reason}; {written}"
     return reason

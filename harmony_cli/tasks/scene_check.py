@@ -9,20 +9,20 @@ end to end from its first moving joint): a scene it passes may still be beyond w
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
-import casadi as cs
 import numpy as np
 
 from harmony_cli.maths.shapes import Shape, obstacle_shape, table_legs, table_shape, table_top_pose
 from harmony_cli.robot.model import Robot
+from harmony_cli.robot.reach import hand_radius
 from harmony_cli.scenario import Scenario, robot_of
 from harmony_cli.scenario.task import RelativeTarget
 from harmony_cli.tasks.passage import Passage, planar_distance
 
-BASE_YAWS = 8  # base headings tried at each candidate position
+BASE_YAWS = 16  # base headings tried at each candidate position
 BASE_STEP = 0.05  # [m] spacing of candidate base positions
+REACH_SLACK = 0.05  # [m] added to the arms' reach (robot/reach.py finds a reach they have, maybe not the farthest)
 
 
 def planar_gap(a: Shape, b: Shape) -> float:
@@ -55,49 +55,22 @@ def _z_range(shape: Shape) -> tuple[float, float]:
     return shape.centre[2] - shape.half[2], shape.centre[2] + shape.half[2]
 
 
-@dataclass(frozen=True)
-class Reach:
-    """Where a hand can be, in the base frame: within `length` of `shoulder` (the first moving joint's origin)."""
-
-    shoulder: np.ndarray  # (3,) at home, base at the origin
-    length: float  # [m] the links from there to the hand laid end to end (prismatic travel included)
-
-
-def arm_reach(robot: Robot, hand: int) -> Reach:
-    urdf = robot.model.urdf
-    chain = urdf.get_chain(urdf.get_root(), robot.end_effectors[hand], links=False)
-    base = {robot.joint_names[i] for i in robot.base_joints}
-    moving = [j for j in chain if j not in base and urdf.joint_map[j].type != "fixed"]
-    q = robot.home.copy()
-    q[list(robot.base_joints)] = 0.0
-    start = chain.index(moving[0]) if moving else len(chain) - 1
-    links = [urdf.joint_map[j].child for j in chain[start:]]
-    points = [np.array(cs.DM(robot.model.get_global_link_position(link, q))).ravel() for link in links]
-    length = float(sum(np.linalg.norm(b - a) for a, b in zip(points, points[1:])))
-    for j in chain[start:]:
-        joint = urdf.joint_map[j]
-        if joint.type == "prismatic" and joint.limit is not None:
-            length += max(abs(joint.limit.lower), abs(joint.limit.upper))
-    return Reach(points[0], length)
-
-
 class SceneCheck:
     """The scene check of a study (each robot's reach worked out once)."""
 
     def __init__(self, scenario_dir: Path, clearance: float = 0.0):
         self.scenario_dir, self.clearance = scenario_dir, clearance
-        self._reach: dict[str, list[Reach]] = {}
+        self._robots: dict[str, Robot] = {}
 
     def __call__(self, scenario: Scenario) -> str | None:
         """Why the scene is impossible, or None."""
         return self._overlap(scenario) or self.unreachable(scenario)
 
-    def reach(self, scenario: Scenario) -> list[Reach]:
+    def robot(self, scenario: Scenario) -> Robot:
         key = scenario.robot.model_dump_json(exclude={"base_pose"})  # where it starts does not change its arms
-        if key not in self._reach:
-            robot = robot_of(scenario, self.scenario_dir)
-            self._reach[key] = [arm_reach(robot, h) for h in range(len(robot.end_effectors))]
-        return self._reach[key]
+        if key not in self._robots:
+            self._robots[key] = robot_of(scenario, self.scenario_dir)
+        return self._robots[key]
 
     def _overlap(self, scenario: Scenario) -> str | None:
         world, robot = scenario.world, scenario.robot
@@ -125,65 +98,72 @@ class SceneCheck:
         return None
 
     def unreachable(self, scenario: Scenario) -> str | None:
-        """Why some hand target cannot be reached (out of reach of every clear base pose, or no passage for the
-        base to one), or None."""
+        """Why some phase's hand targets cannot be reached (no collision-free base pose has them all within the
+        arms' reach, or none the base can drive to from its start), or None."""
         if scenario.task is None:
             return None
-        blocked, reach, robot = _static_outlines(scenario), self.reach(scenario), scenario.robot
-        targets = [
-            (phase.name, h, label, target)
-            for phase in scenario.task.phases
-            for h, label in enumerate(robot.end_effectors)
-            if (target := target_position(phase.hands.get(label), scenario)) is not None
-        ]
-        circles = np.asarray(robot.footprint, dtype=float).reshape(-1, 3)
+        blocked, robot, spec = _static_outlines(scenario), self.robot(scenario), scenario.robot
+        phases = []
+        for phase in scenario.task.phases:
+            written = [
+                (h, label, target_position(phase.hands.get(label), scenario))
+                for h, label in enumerate(spec.end_effectors)
+            ]
+            phases.append((phase.name, [(h, label, t) for h, label, t in written if t is not None]))
+        circles = np.asarray(spec.footprint, dtype=float).reshape(-1, 3)
         passage = None
-        if len(circles) and targets:
-            ends = np.array([t[:2] for *_, t in targets])
-            passage = Passage(blocked, circles, np.asarray(robot.base_pose[:2], dtype=float), ends)
-        for phase, h, label, target in targets:
-            found = _base_place(reach[h], target, blocked, circles, passage)
+        ends = np.array([t[:2] for _, targets in phases for *_, t in targets])
+        if len(circles) and len(ends):
+            passage = Passage(blocked, circles, np.asarray(spec.base_pose[:2], dtype=float), ends)
+        for name, targets in phases:
+            if not targets:
+                continue
+            radii = [hand_radius(robot, h, float(t[2])) for h, _, t in targets]
+            found = _base_place(radii, np.array([t for *_, t in targets]), blocked, circles, passage)
+            where = " and ".join(f"the {label} hand's target {np.round(t, 3).tolist()}" for _, label, t in targets)
             if found == "out of reach":
-                return (
-                    f"phase {phase}: the {label} hand's target {np.round(target, 3).tolist()} is out of reach from "
-                    "every collision-free base pose"
-                )
+                return f"phase {name}: {where} out of reach from every collision-free base pose"
             if found == "no passage" and passage is not None:
                 margins = sorted({f"{m:g}" for _, m in blocked})
                 return (
-                    f"phase {phase}: no passage for the base from its start to where the {label} hand's target "
-                    f"{np.round(target, 3).tolist()} is in reach; the footprint is {passage.width:.3f} m wide at its "
-                    f"narrowest, so a gap must be wider than {passage.width:.3f} m plus the margins of the bodies "
-                    f"on either side ({' / '.join(margins)} m)"
+                    f"phase {name}: no passage for the base from its start to where {where} in reach; the "
+                    f"footprint is {passage.width:.3f} m wide at its narrowest, so a gap must be wider than "
+                    f"{passage.width:.3f} m plus the margins of the bodies on either side ({' / '.join(margins)} m)"
                 )
         return None
 
 
-def _base_place(reach: Reach, target: np.ndarray, blocked: list, circles: np.ndarray, passage: Passage | None) -> str:
-    """Whether some base pose (a grid of positions x BASE_YAWS headings) has its footprint clear of `blocked`, the
-    target within the arm's reach and the `passage` to it from the start: "ok", "out of reach" or "no passage"."""
-    height = target[2] - reach.shoulder[2]
-    if abs(height) > reach.length:
+def _base_place(
+    radii: list[float | None], targets: np.ndarray, blocked: list, circles: np.ndarray, passage: Passage | None
+) -> str:
+    """Whether some base pose (a grid of positions x BASE_YAWS headings) has its footprint clear of `blocked`,
+    every target (n, 3) within its hand's plan-view `radii` of the base's origin and the `passage` to it from the
+    start: "ok", "out of reach" or "no passage". Conservative (a necessary condition): the radii grow by REACH_SLACK
+    and the margins shrink by how far a true pose can be from the nearest one tried."""
+    if any(r is None for r in radii):
         return "out of reach"
-    radius = np.sqrt(reach.length**2 - height**2)  # of the circle of shoulder positions in the target's plane
-    span = np.arange(
-        -radius - np.linalg.norm(reach.shoulder[:2]), radius + np.linalg.norm(reach.shoulder[:2]), BASE_STEP
-    )
-    grid = target[:2] + np.stack(np.meshgrid(span, span), axis=-1).reshape(-1, 2)
-    extent = np.abs(span).max() * np.sqrt(2) + np.hypot(circles[:, 0], circles[:, 1]).max() + circles[:, 2].max()
+    reach = np.array(radii, dtype=float) + REACH_SLACK + BASE_STEP / np.sqrt(2)
+    span = np.arange(-reach.max(), reach.max() + BASE_STEP, BASE_STEP)
+    grid = targets[:, :2].mean(axis=0) + np.stack(np.meshgrid(span, span), axis=-1).reshape(-1, 2)
+    near = grid[(np.linalg.norm(grid[:, None] - targets[None, :, :2], axis=2) <= reach).all(axis=1)]
+    if len(near) == 0:
+        return "out of reach"
+    arm = np.hypot(circles[:, 0], circles[:, 1])  # a circle's centre moves by at most arm * half a yaw step
+    give = BASE_STEP / np.sqrt(2) + arm * np.sin(np.pi / BASE_YAWS)
+    extent = reach.max() + arm.max() + circles[:, 2].max()
     near_target = [  # shapes no candidate footprint can touch drop out
         (shape, margin)
         for shape, margin in blocked
-        if np.hypot(*(shape.centre[:2] - target[:2])) <= extent + np.linalg.norm(shape.half[:2]) + margin
+        if np.hypot(*(shape.centre[:2] - targets[:, :2].mean(axis=0)))
+        <= extent + np.linalg.norm(shape.half[:2]) + margin
     ]
     found = "out of reach"
     for yaw in np.linspace(0, 2 * np.pi, BASE_YAWS, endpoint=False):
         turn = np.array([[np.cos(yaw), np.sin(yaw)], [-np.sin(yaw), np.cos(yaw)]])  # row vectors turned by yaw
-        near = grid[np.linalg.norm(grid + reach.shoulder[:2] @ turn - target[:2], axis=1) <= radius]
         centres = (near[:, None, :] + (circles[:, :2] @ turn)[None]).reshape(-1, 2)  # (positions x circles, 2)
         clear = np.ones(len(centres), dtype=bool)
         for shape, margin in near_target:
-            clear &= planar_distance(shape, centres) - np.tile(circles[:, 2], len(near)) >= margin
+            clear &= planar_distance(shape, centres) - np.tile(circles[:, 2] + give, len(near)) >= margin
         places = near[clear.reshape(len(near), len(circles)).all(axis=1)]
         if len(places):
             if passage is None or passage.reaches(places):

@@ -18,8 +18,10 @@ from harmony_cli.mpc.plan_seed import Ground
 from harmony_cli.mpc.planner import TaskPlanner
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.observation import Observation
+from harmony_cli.robot.reach import hand_ceiling
 from harmony_cli.tasks.motion import centre_at
 from harmony_cli.tasks.passage import narrowest_width
+from harmony_cli.tasks.scene_check import target_position
 from harmony_cli.tasks.schedule import ActivePhase, Schedule
 from harmony_cli.tasks.stance import Stance, stances
 from harmony_cli.tasks.targets import HandTargets
@@ -50,7 +52,12 @@ class TaskReferences:
         ]
         hands = np.array([p0, p1])
         base = _planned_base(scenario, robot.home[list(robot.base_joints)], hands, obstacles)
-        self.planner = TaskPlanner(scenario.planner, obstacles, self.home_rotations, offset, _ground(scenario), base)
+        width = _grip_width(scenario, robot, hands)
+        self.ceiling = hand_ceiling(robot, width)
+        self.reach_warnings = _above(scenario, robot.hand_names, self.ceiling, width)
+        self.planner = TaskPlanner(
+            scenario.planner, obstacles, self.home_rotations, offset, _ground(scenario), base, self.ceiling
+        )
         self.stances = _stances(scenario, robot, hands, offset, obstacles)
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
         box = scenario.world.box
@@ -127,6 +134,32 @@ class TaskReferences:
         return self.planner.step(
             t, state, self.goal, active.end, active.index, self.box_radius if holding else None, self.box_drop or 0.0
         )
+
+
+def _grip_width(scenario: Scenario, robot: Robot, hands: np.ndarray) -> float:
+    """[m] the hands' distance apart in the grasp phase as written (at home without one)."""
+    assert scenario.task is not None
+    grasp = next((p for p in scenario.task.phases if p.grasp), None)
+    ends = [] if grasp is None else [target_position(grasp.hands.get(h), scenario) for h in robot.hand_names]
+    pair = [e for e in ends if e is not None]
+    return float(np.linalg.norm(pair[1] - pair[0]) if len(pair) == 2 else np.linalg.norm(hands[1] - hands[0]))
+
+
+def _above(scenario: Scenario, hand_names: tuple[str, ...], ceiling: float | None, width: float) -> list[str]:
+    """A line per phase whose written hand targets are above the `ceiling` (+1 cm)."""
+    if ceiling is None or scenario.task is None:
+        return []
+    lines = []
+    for phase in scenario.task.phases:
+        heights = [
+            (float(z[2]), h) for h in hand_names if (z := target_position(phase.hands.get(h), scenario)) is not None
+        ]
+        if heights and (top := max(heights, key=lambda pair: pair[0]))[0] > ceiling + 0.01:
+            lines.append(
+                f"reach: phase {phase.name} asks the {top[1]} hand at z = {top[0]:.3f} m, above the {ceiling:.3f} m "
+                f"both hands reach together with the pads level ({width:.3f} m apart): the plan stays below it"
+            )
+    return lines
 
 
 def _ground(scenario: Scenario) -> Ground | None:
