@@ -309,3 +309,24 @@ def test_a_plan_into_a_wall_gets_a_relaxed_step_that_leaves_no_violated_clearanc
     violated = h < lower
     assert violated.sum() >= 5
     assert (C[violated] @ (result.x - start) >= -1e-9).all()
+
+
+@pytest.mark.parametrize("transcription", ["bezier", "traditional"])
+def test_a_jump_of_the_references_changes_the_joint_velocities_by_at_most_the_acceleration_bound(eva, transcription):
+    poses = eva.hand_poses_numeric(eva.home)
+    change = {}
+    for bound in ("null", "2.0"):
+        overrides = [f"mpc.transcription={transcription}", "mpc.knots=6", "solver.name=rti"]
+        scenario = load_scenario(TABLE1, [*overrides, f"mpc.max_acceleration={bound}"])
+        mpc = WholeBodyMPC(eva, scenario, scenario.sim.control_dt)
+        t, dt, K = mpc.transcription, scenario.sim.control_dt, mpc.transcription.n_knots
+        rotations = np.array([[r for _, r in poses]] * K)
+        still = hand_rows(np.array([[p.ravel() for p, _ in poses]] * K), rotations)
+        moved = hand_rows(np.array([[p.ravel() + [0.4, 0.3, 0.2] for p, _ in poses]] * K), rotations)
+        command, _ = mpc.step(eva.home.copy(), still)
+        before = t.readout(t.shift(mpc.x, dt), 0.0)[1][: eva.n_dof]  # the last plan's velocity, one period on
+        _, result = mpc.step(command.q, moved)
+        assert result.success
+        change[bound] = np.abs(t.readout(result.x, 0.0)[1][: eva.n_dof] - before).max()
+    assert change["null"] > 10 * 2.0 * dt  # premise: unbounded, the first solve after the jump steps the velocity
+    assert change["2.0"] <= 2.0 * dt + 1e-6

@@ -53,6 +53,10 @@ class Transcription(Protocol):
     def readout(self, x: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(q, q_dot) at time t into the horizon."""
 
+    def velocity_band(self, x: np.ndarray, q_now: np.ndarray, change: float) -> tuple[slice, np.ndarray, np.ndarray]:
+        """Where in x (a slice) and within which bounds (lower, upper) q_dot(0) stays within `change` of its value in
+        `x` (the warm start), with q(0) = q_now."""
+
     def shift(self, x: np.ndarray, dt: float) -> np.ndarray:
         """x of the same trajectory started dt later (warm start)."""
 
@@ -103,6 +107,11 @@ class BezierTranscription:
         lo[:, 0] = hi[:, 0] = q_now  # initial state from the measurement
         lo[pinned, :] = hi[pinned, :] = np.asarray(q_pinned)[:, None]
         return lo.ravel("F"), hi.ravel("F")
+
+    def velocity_band(self, x: np.ndarray, q_now: np.ndarray, change: float) -> tuple[slice, np.ndarray, np.ndarray]:
+        Q, step = self.positions(x), self.horizon / (self.n_ctrl - 1)  # q_dot(0) = (Q_1 - Q_0) / step
+        centre = q_now + (Q[:, 1] - Q[:, 0])
+        return slice(self.n_dof, 2 * self.n_dof), centre - step * change, centre + step * change
 
     def readout(self, x: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
         if t not in self._readout:  # the loop reads out at the same few times every step: their bases once
@@ -165,6 +174,11 @@ class TraditionalTranscription:
         qlo[pinned, :] = qhi[pinned, :] = np.asarray(q_pinned)[:, None]
         vlo[pinned, :] = vhi[pinned, :] = 0.0
         return np.concatenate([qlo.ravel("F"), vlo.ravel("F")]), np.concatenate([qhi.ravel("F"), vhi.ravel("F")])
+
+    def velocity_band(self, x: np.ndarray, q_now: np.ndarray, change: float) -> tuple[slice, np.ndarray, np.ndarray]:
+        start = self.n_dof * self.n_knots  # dq[:, 0]
+        dq0 = self.split(x)[1][:, 0]
+        return slice(start, start + self.n_dof), dq0 - change, dq0 + change
 
     def readout(self, x: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
         """State at time t <= delta along the transcription's own interpolation of the first interval."""

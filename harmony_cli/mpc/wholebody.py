@@ -36,6 +36,7 @@ class WholeBodyMPC:
         start = time.perf_counter()
         self.robot, self.control_dt = robot, control_dt
         self.admittance = scenario.admittance if scenario.admittance.enabled else None
+        self.max_acceleration = scenario.mpc.max_acceleration
         self.n_hands = len(robot.end_effectors)
         self.limits = joint_limits(robot, self.admittance)
         structure, self.reused = structure_for(robot, scenario)  # built once per process (mpc/structures.py)
@@ -96,6 +97,8 @@ class WholeBodyMPC:
         q_init[self.pinned] = robot.home[self.pinned]
         lbx, ubx = t.bounds(*self.limits, q_init, self.pinned, robot.home[self.pinned])
         x0 = self._constant(q_init) if self.x is None else t.shift(self.x, dt)
+        if self.max_acceleration is not None and self.x is not None:
+            lbx, ubx = self._acceleration_bounds(x0, q_init, lbx, ubx)
         result = self._solve(np.clip(x0, lbx, ubx), lbx, ubx)
         command = self._command(result.x, held=False) if result.success else None
         if command is not None and np.isfinite(command.q).all() and np.isfinite(command.qd).all():
@@ -108,6 +111,19 @@ class WholeBodyMPC:
         # A held plan is read out from its shifted copy: it continues from where it was, not from q_now.
         self.x = t.shift(self.x, dt)
         return self._command(self.x, held=True), result
+
+    def _acceleration_bounds(self, x0, q_now, lbx, ubx) -> tuple[np.ndarray, np.ndarray]:
+        """The joints' velocity at t = 0 within max_acceleration * dt of the warm start's (the last plan's, now):
+        a real-time iteration otherwise answers a jump of the references (a new phase) with a step in the command
+        that rings for a few periods (a held box's pads let go). Where a position limit leaves no room, the limit."""
+        assert self.max_acceleration is not None
+        where, lo, hi = self.transcription.velocity_band(x0, q_now, self.max_acceleration * self.control_dt)
+        lbx, ubx = lbx.copy(), ubx.copy()
+        lower, upper = np.maximum(lbx[where], lo), np.minimum(ubx[where], hi)
+        joints = np.arange(lower.size) < self.robot.n_dof  # not the compliant offsets
+        room = joints & (lower <= upper)
+        lbx[where][room], ubx[where][room] = lower[room], upper[room]
+        return lbx, ubx
 
     def _command(self, x: np.ndarray, held: bool) -> Command:
         t, dt, robot = self.transcription, self.control_dt, self.robot

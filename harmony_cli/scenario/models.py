@@ -31,6 +31,11 @@ class MpcSpec(Strict):
     horizon: PositiveFloat = Field(5.0, description="prediction horizon T [s]")
     knots: int = Field(26, ge=2, le=400, description="time knots K where the cost is evaluated (independent of N)")
     control_points: int = Field(6, ge=2, le=40, description="Bezier control points N (bezier only)")
+    max_acceleration: PositiveFloat | None = Field(
+        2.0,
+        description="[rad/s^2, m/s^2] how fast a joint's commanded velocity may change: q_dot(0) of each solve "
+        "within this times the control period of the last plan's (null: free)",
+    )
     clearance: Literal["hard", "soft"] = Field(
         "hard",
         description="obstacle clearance of the base footprint and hands: constraint rows at knots k >= 1 "
