@@ -23,6 +23,12 @@ SCENES = {
     "two_cylinders": ("pick_and_carry.yaml", [TWO_CYLINDERS]),
     # the robot 1 m further back and turned 90 deg
     "turned_start": ("pick_and_carry.yaml", ["robot.base_pose=[-1.0,0.0,90.0]"]),
+    # the crate 20 cm taller and 10 cm nearer the pick table: over it the hands would be above what the arms
+    # reach with the pads level, so the box goes round it
+    "tall_crate": (
+        "static_obstacles.yaml",
+        ["world.obstacles.crate.size=[0.4,0.4,1.4]", "world.obstacles.crate.position=[3.5,2.67,0.7]"],
+    ),
 }
 
 
