@@ -26,7 +26,10 @@ def _cylinder(y: float) -> Obstacle:
 
 def _plan(obstacles=(), goal=GOAL, phase_end=PHASE_END, carrying=None, drop=0.0, ceiling=None):
     planner = TaskPlanner(SPEC, list(obstacles), HOME, OFFSET, ceiling=ceiling)
-    result = planner.step(0.0, HandState(START, np.zeros((2, 3)), 0.0), goal, phase_end, 0, carrying, drop)
+    args = (HandState(START, np.zeros((2, 3)), 0.0), goal, phase_end, 0, carrying, drop)
+    result = planner.step(0.0, *args)
+    if planner.route_pending:  # the phase's first plan wants a route: the next step tries it
+        result = planner.step(0.0, *args)
     return planner, result
 
 
@@ -208,3 +211,44 @@ def test_phase_too_short_for_the_bounds_stretches_the_horizon_and_keeps_the_spee
     C = result.plan.control_points
     assert np.all(np.abs(C @ difference_matrix(C.shape[1], 1, horizon).T) <= _speed_limits()[:, None] + 1e-6)
     np.testing.assert_allclose(result.plan.sample(np.array([horizon]))[0][0], goal, atol=1e-9)
+
+
+def _every_stretch_in_turn(planner, C, t, T, ends, carried, width):
+    """The search as it was: every stretch in turn, then every stretch relaxed (the first that solves)."""
+    from harmony_cli.mpc.phase_start import STRETCHES
+    from harmony_cli.mpc.plan_seed import fix_ends
+
+    for relaxed, stretch in [(r, s) for r in (False, True) for s in STRETCHES]:
+        fix_ends(C, *ends, T * stretch)
+        out = planner._sqp_step(C, t, T * stretch, carried, width, relaxed)
+        if out[0] is not None:
+            break
+    return out, stretch, relaxed
+
+
+NEAR_START = Obstacle(Shape("cylinder", np.array([0.76, 0.5, 1.0]), 0.0, np.array([0.3, 0.3, 1.0])), CLEARANCE)
+
+
+@pytest.mark.parametrize(
+    "case, expected",
+    [
+        (dict(goal=START + [2.0, 0.0, 0.0], phase_end=0.3), "horizon stretched"),  # the rate bounds
+        (dict(goal=START + [0.5, 0.0, 0.0], phase_end=0.3), "horizon stretched"),
+        (dict(obstacles=[NEAR_START], phase_end=1.0), "clearance relaxed"),  # hand 0 starts 8 cm inside a margin
+    ],
+)
+def test_the_stretch_search_finds_the_plan_that_trying_every_stretch_in_turn_finds(case, expected, monkeypatch):
+    found = _plan(**case)[1]
+    monkeypatch.setattr("harmony_cli.mpc.planner.first_step", _every_stretch_in_turn)
+    every = _plan(**case)[1]
+    assert expected in found.status and found.status == every.status
+    np.testing.assert_array_equal(found.plan.control_points, every.plan.control_points)
+
+
+def test_a_phase_s_first_plan_that_wants_a_route_gets_it_on_the_next_step():
+    planner = TaskPlanner(SPEC, [_cylinder(0.0)], HOME, OFFSET)
+    args = (HandState(START, np.zeros((2, 3)), 0.0), GOAL, PHASE_END, 0, CARRYING)
+    first = planner.step(0.0, *args)
+    assert not first.status.endswith("(route)") and planner.route_pending  # one SQP on this step
+    second = planner.step(0.02, *args)
+    assert second.status.endswith("(route)") and not planner.route_pending

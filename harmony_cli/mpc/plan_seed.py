@@ -16,12 +16,29 @@ from harmony_cli.maths.shapes import Shape
 from harmony_cli.mpc.route import Route, footprint, plan_route
 
 if TYPE_CHECKING:
-    from harmony_cli.mpc.hand_plan import Obstacle
+    from harmony_cli.mpc.hand_plan import HandState, Obstacle
 
 
 def straight_line(start: np.ndarray, end: np.ndarray, M: int) -> np.ndarray:
     """Control points evenly along start -> end (7,): the curves move at constant speed."""
     return start[:, None] + (end - start)[:, None] * np.linspace(0, 1, M)
+
+
+def straight_to(ends, M: int) -> np.ndarray:
+    """Control points (7, M) from the measured hands and heading straight to the goal's (`ends`: state, goal,
+    heading)."""
+    state, goal, heading_goal = ends
+    start = np.concatenate([state.positions.ravel(), [state.heading]])
+    return straight_line(start, np.concatenate([goal.ravel(), [heading_goal]]), M)
+
+
+def fix_ends(C: np.ndarray, state: HandState, goal: np.ndarray, goal_heading: float, T: float) -> None:
+    """`C`'s fixed columns, in place: the first two from the measured state (its velocity over a horizon `T`), the
+    last three at the goal (at rest)."""
+    n = C.shape[1] - 1  # in place, no concatenated (7,) vectors: the same floats, ~10 us less
+    C[:6, 0], C[6, 0] = state.positions.ravel(), state.heading
+    C[:6, 1], C[6, 1] = C[:6, 0] + state.velocities.ravel() * T / n, state.heading + state.heading_rate * T / n
+    C[:6, -3:], C[6, -3:] = goal.reshape(6, 1), goal_heading
 
 
 @dataclass(frozen=True)
@@ -39,6 +56,7 @@ def route_around(
     goal: np.ndarray,
     carried: tuple[float, float] | None,
     ground: Ground | None = None,
+    via: np.ndarray | None = None,
 ) -> Route | None:
     """The hands' midpoint's planar route from `start` to `goal` (both (2, 3): the hands), clear of every static
     obstacle whose height overlaps the hands' (and the carried object's) by its clearance plus the larger of half
@@ -62,7 +80,21 @@ def route_around(
         outlines.append(footprint(shape, obstacle.clearance + reach))
     if ground is not None:
         outlines += [footprint(table, margin + ground.base_radius) for table, margin in ground.tables]
-    return plan_route(start.mean(axis=0)[:2], goal.mean(axis=0)[:2], outlines)
+    if via is None:
+        return plan_route(start.mean(axis=0)[:2], goal.mean(axis=0)[:2], outlines)
+    legs = plan_route(start.mean(axis=0)[:2], via, outlines), plan_route(via, goal.mean(axis=0)[:2], outlines)
+    if legs[0] is None or legs[1] is None:
+        return None
+    return Route(np.vstack([legs[0].points, legs[1].points[1:]]), legs[0].length + legs[1].length)
+
+
+def on_route(C, ends, obstacles, carried, ground, via, sampling) -> np.ndarray | None:
+    """`C` (the straight line's control points, its ends fixed) moved onto the route from the measured hands to the
+    goal (`ends`: state, goal, heading) through `via` (route_around); None when there is no way round or nothing in
+    the way. `sampling`: the planner's basis (S, M), sample parameters (S,) and free columns (7, M)."""
+    state, goal, _ = ends
+    route = route_around(obstacles, state.positions, goal, carried, ground, via)
+    return None if route is None or len(route.points) == 2 else moved_onto(C, route, *sampling)
 
 
 def moved_onto(C: np.ndarray, route: Route, basis: np.ndarray, s: np.ndarray, free: np.ndarray) -> np.ndarray:

@@ -14,16 +14,16 @@ iteration) on every other step; the horizon is stretched when the bounds cannot 
 Hands below the arms' reach with the pads level (robot/reach.py): a bound on the z control points. The base follows
 the hands: soft rows keep its footprint, carried behind the hands as at home, clear of the obstacles and table legs
 (plan_base.py). Global guidance: a local SQP linearised at the straight line cannot find its way round an obstacle
-on it (the distance gradient points along it). When a phase's first plan fails, does not converge, misses a
-clearance or splits the hands, and when a re-plan fails, the SQP runs again from the straight line moved onto the
-shortest planar route around obstacles and tables, wide enough for the base (plan_seed.py, route.py), taken if it
-ranks higher (status "... (route)").
+on it. When a phase's first plan does not converge, misses a clearance or splits the hands, or has a point to pass
+(`via`: a base pose that works at a blocked stance, tasks/stance_pose.py), the next step runs the SQP again from the
+straight line moved onto the shortest planar route round obstacles and tables, wide enough for the base (plan_seed,
+route.py), through `via`, and takes it if it ranks higher or passes `via` (status "... (route)"); a failed plan
+tries the route at once.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import casadi as cs
@@ -32,15 +32,14 @@ import numpy as np
 from harmony_cli.maths.bezier import bernstein_basis, difference_matrix, shift_matrix
 from harmony_cli.mpc.codegen import Buffered
 from harmony_cli.mpc.hand_plan import ROWS, Ends, HandState, Obstacle, Plan, PlannerResult, Solved
+from harmony_cli.mpc.phase_start import first_step, on_route_plan
 from harmony_cli.mpc.plan_base import PlannedBase
-from harmony_cli.mpc.plan_checks import goal_reliefs, is_clean, rank
-from harmony_cli.mpc.plan_seed import Ground, moved_onto, route_around, straight_line
+from harmony_cli.mpc.plan_checks import goal_reliefs, is_clean
+from harmony_cli.mpc.plan_seed import Ground, straight_to
 from harmony_cli.mpc.problem import NoPlanToHold
 
 if TYPE_CHECKING:
     from harmony_cli.scenario.models import PlannerSpec
-
-STRETCHES = (1.0, 1.5, 2.25, 3.5, 5.0)  # horizon factors tried when the rate bounds cannot be met in time
 
 
 class TaskPlanner:
@@ -93,7 +92,14 @@ class TaskPlanner:
         self.C: np.ndarray | None = None  # the last good plan's control points, over [t_plan, t_plan + T_plan]
         self.phase: int | None = None
         self.t_plan, self.T_plan = 0.0, 1.0
+        self.via: np.ndarray | None = None  # (2,) a point a phase's first plan routes through (a chosen stance)
+        self._route: tuple | None = None  # (via,): a route to try on the next step (the phase's first plan wants one)
         self.path = f"Gauss-Newton SQP on the control points, {spec.qp} QP, numpy derivatives"
+
+    @property
+    def route_pending(self) -> bool:
+        """Whether the next step tries a route (the phase's first plan wanted one)."""
+        return self._route is not None
 
     def _bind_buffers(self) -> None:
         """What each step writes in place (no per-step allocation or copy): the Jacobian over the free control points
@@ -116,12 +122,6 @@ class TaskPlanner:
         rows.T[: self.n_keep] = self.A[self.keep][:, free]
         self._qp_rows = rows.reshape(ROWS, -1, rows.shape[1])
         args["uba"][self.n_keep :], args["lbx"][:], args["ubx"][:] = np.inf, -np.inf, np.inf
-
-    def _fixed(self, C: np.ndarray, state: HandState, goal: np.ndarray, goal_heading: float, T: float):
-        n = self.M - 1  # in place, no concatenated (7,) vectors: the same floats, ~10 us less
-        C[:6, 0], C[6, 0] = state.positions.ravel(), state.heading
-        C[:6, 1], C[6, 1] = C[:6, 0] + state.velocities.ravel() * T / n, state.heading + state.heading_rate * T / n
-        C[:6, -3:], C[6, -3:] = goal.reshape(6, 1), goal_heading
 
     def goal_heading(self, goal: np.ndarray, heading_now: float) -> float:
         d = goal[1] - goal[0]
@@ -150,7 +150,7 @@ class TaskPlanner:
         previous = self.C if phase == self.phase else None
         fresh = previous is None
         if previous is None:  # straight line to the goal, then full SQP
-            C = self._straight((state, goal, heading_goal))
+            C = straight_to((state, goal, heading_goal), self.M)
             iterations = self.spec.phase_iterations
         else:  # the previous plan from now on (de Casteljau), re-timed to the new horizon
             tau = min(max((t - self.t_plan) / self.T_plan, 0.0), 0.99)  # np.clip costs ~4 us on a float
@@ -160,9 +160,15 @@ class TaskPlanner:
         key = (phase, carried is None, goal.tobytes())  # the goal's reliefs: once a phase (and once held)
         if key != self._relief_key:
             self._reliefs, self._relief_key = goal_reliefs(self.obstacles, goal, t + T, carried), key
-        solved = self._solve(C, t, T, (state, goal, heading_goal), iterations, carried, width)
-        if self.obstacles and not (solved.success and (not fresh or is_clean(solved, self.B, self.obstacles))):
-            solved = self._on_route(solved, t, T, (state, goal, heading_goal), carried, width)
+        ends = (state, goal, heading_goal)
+        solved = self._solve(C, t, T, ends, iterations, carried, width)
+        if fresh and solved.success:  # a route, if this plan wants one, on the next step: one SQP a step at most
+            wanted = self.via is not None or not is_clean(solved, self.B, self.obstacles)
+            self._route, self.via = ((self.via,) if self.obstacles and wanted else None), None
+        elif self.obstacles and (self._route is not None or not solved.success):
+            via = self.via if fresh else (self._route or (None,))[0]
+            self._route, self.via = None, None
+            solved = on_route_plan(self, solved, t, T, ends, carried, width, via)
         C, success, status = solved.C, solved.success, solved.status
         if success and not np.isfinite(C).all():  # NaN / inf never becomes the plan: the last one is held
             success, status = False, "non-finite plan"
@@ -177,16 +183,8 @@ class TaskPlanner:
 
     def _solve(self, C: np.ndarray, t: float, T: float, ends: Ends, iterations: int, carried, width: float) -> Solved:
         """Gauss-Newton SQP from `C` (changed in place) towards `ends` = (state, goal, goal heading)."""
-        state, goal, heading_goal = ends
-        status, success, clearance, base_clearance, it = "max_iter", True, np.inf, np.inf, 0
-        # the measured start may not allow reaching the goal at rest within the rate bounds by the phase's end
-        # (the hands lag, the phase is short): then the plan takes longer, and says so. Last, the clearance rows
-        # violated now (the hands already inside a margin, linearisations that contradict) ask only not to get worse
-        for relaxed, stretch in [(r, s) for r in (False, True) for s in STRETCHES]:
-            self._fixed(C, state, goal, heading_goal, T * stretch)
-            step, clearance, base_clearance, status = self._sqp_step(C, t, T * stretch, carried, width, relaxed)
-            if step is not None:
-                break
+        success, it = True, 0
+        (step, clearance, base_clearance, status), stretch, relaxed = first_step(self, C, t, T, ends, carried, width)
         T *= stretch
         suffix = f" (horizon stretched x{stretch:g})" if stretch > 1 else ""
         suffix += " (clearance relaxed)" if relaxed else ""
@@ -201,26 +199,6 @@ class TaskPlanner:
                 status = "converged"
                 break
         return Solved(C, T, success, status + suffix, it, clearance, stretch, base_clearance)
-
-    def _straight(self, ends: Ends) -> np.ndarray:
-        """Control points from the measured hands and heading straight to the goal's."""
-        state, goal, heading_goal = ends
-        start = np.concatenate([state.positions.ravel(), [state.heading]])
-        return straight_line(start, np.concatenate([goal.ravel(), [heading_goal]]), self.M)
-
-    def _on_route(self, solved: Solved, t: float, T: float, ends: Ends, carried, width: float) -> Solved:
-        """The SQP again from the straight line moved onto a planar route around the obstacles (plan_seed.py); taken
-        if it ranks above the plan from the straight line."""
-        state, goal, heading_goal = ends
-        route = route_around(self.obstacles, state.positions, goal, carried, self.ground)
-        if route is None or len(route.points) == 2:  # no way round, or nothing in the way: nothing to seed
-            return solved
-        C = self._straight(ends)
-        self._fixed(C, state, goal, heading_goal, T)
-        C = moved_onto(C, route, self.B, self.s, self.free)
-        seeded = self._solve(C, t, T, ends, self.spec.phase_iterations, carried, width)
-        seeded = replace(seeded, status=seeded.status + " (route)")
-        return seeded if rank(seeded, self.B, self.obstacles) > rank(solved, self.B, self.obstacles) else solved
 
     def _sqp_step(self, C: np.ndarray, t: float, T: float, carried, width: float, relaxed: bool = False):
         """One Gauss-Newton QP over the free control points of the plan over [t, t + T]: (step or None, predicted

@@ -7,7 +7,8 @@ still succeeded: a warning, not a refusal. It names the body and the smallest tu
 about its pivot (the box; the box's goal) that would clear the base, for the author to write.
 
 Turning the targets automatically was tried (issue 14): it changed which runs failed, not how many (the carry to
-a turned place twists the grip instead), so the turn is a suggestion."""
+a turned place twists the grip instead), so the turn is a suggestion. What harmony does instead for a blocked place
+is find a base pose that works there and route the carry through it (stance_pose.py, two_stage.py)."""
 
 from __future__ import annotations
 
@@ -37,6 +38,7 @@ class Stance:
     margin: float
     body: str
     turn_deg: float | None
+    pivot_position: np.ndarray
 
     def warning(self) -> str | None:
         """One line when the written stance is more than TOLERANCE inside a margin, else None."""
@@ -104,7 +106,7 @@ def _stance(phases, pivot_name, pairs, pivot, base, heading_offset) -> Stance:
             turn = float(best)
             break
     nearest = int(np.argmin(margins))
-    return Stance(phases, pivot_name, float(margins[nearest]), names[nearest], turn)
+    return Stance(phases, pivot_name, float(margins[nearest]), names[nearest], turn, pivot)
 
 
 def _margins(pairs: np.ndarray, base: PlannedBase, heading_offset: float) -> np.ndarray:

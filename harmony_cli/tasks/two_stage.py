@@ -24,6 +24,7 @@ from harmony_cli.tasks.passage import narrowest_width
 from harmony_cli.tasks.scene_check import target_position
 from harmony_cli.tasks.schedule import ActivePhase, Schedule
 from harmony_cli.tasks.stance import Stance, stances
+from harmony_cli.tasks.stance_pose import stance_pose
 from harmony_cli.tasks.targets import HandTargets
 
 if TYPE_CHECKING:
@@ -59,6 +60,7 @@ class TaskReferences:
             scenario.planner, obstacles, self.home_rotations, offset, _ground(scenario), base, self.ceiling
         )
         self.stances = _stances(scenario, robot, hands, offset, obstacles)
+        self.vias = _vias(scenario, robot, self.stances, offset)  # phase index -> (2,): see _vias
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
         box = scenario.world.box
         self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
@@ -78,6 +80,7 @@ class TaskReferences:
             if obs.box_position is not None:
                 poses["box"] = (obs.box_position, obs.box_yaw)
             self.phase, self.goal = active, self.schedule.goal(active.spec, obs.hand_positions, poses)
+            self.planner.via = self.vias.get(active.index)
         holding = self.schedule.holding(t)
         log = {
             "phase": active.spec.name,
@@ -203,3 +206,29 @@ def _stances(
     still = [k for k, body in enumerate(bodies) if body.motion is None]
     footprint = PlannedBase.at_home(circles, robot.home[list(robot.base_joints)], hands, [bodies[k] for k in still])
     return stances(scenario, robot.hand_names, (footprint, [names[k] for k in still]), heading_offset)
+
+
+NEAR = 0.2  # [m] a phase works at its group's pivot when its hands' midpoint is this near it (plan view)
+
+
+def _vias(scenario: Scenario, robot: Robot, found: list[Stance], heading_offset: float) -> dict[int, np.ndarray]:
+    """For each group whose written stance is blocked (a warning), a base pose that works at its pivot
+    (stance_pose.py: clear of the scene, the hands on the group's targets there) and the first phase's index: that
+    phase's first plan routes the hands through the pose's position, so they come to the pivot from where the base
+    can stand and the base, which follows them, arrives on that side of whatever blocks the written stance."""
+    assert scenario.task is not None
+    names = [p.name for p in scenario.task.phases]
+    vias = {}
+    for stance in found:
+        if stance.warning() is None:
+            continue
+        phases = [scenario.task.phases[names.index(n)] for n in stance.phases]
+        pairs = np.array([[target_position(p.hands[h], scenario) for h in robot.hand_names] for p in phases])
+        at = np.linalg.norm(pairs.mean(axis=1)[:, :2] - stance.pivot_position[:2], axis=1) <= NEAR
+        if not at[0]:  # the group's way in is a phase of its own (an approach): its pose is not the one found
+            continue
+        d = pairs[at, 1] - pairs[at, 0]
+        pose = stance_pose(scenario, robot, pairs[at], np.arctan2(d[:, 1], d[:, 0]) + heading_offset)
+        if pose is not None:
+            vias[names.index(stance.phases[0])] = pose[0][:2]
+    return vias

@@ -1,0 +1,58 @@
+"""How the task-space planner gets a phase's first plan when the straight line does not do: a longer horizon (the
+rate bounds), relaxed clearance rows (a start inside a margin) and a route round the obstacles (global guidance),
+each at a bounded cost per control step: a QP that fails costs as much as a few that solve, and the route's SQP
+runs on the step after the straight line's (planner.py)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+from harmony_cli.mpc.plan_checks import rank
+from harmony_cli.mpc.plan_seed import fix_ends, on_route, straight_to
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from harmony_cli.mpc.hand_plan import Ends, Solved
+    from harmony_cli.mpc.planner import TaskPlanner
+
+STRETCHES = (1.0, 1.5, 2.25, 3.5, 5.0)  # horizon factors tried when the rate bounds cannot be met in time
+
+
+def first_step(planner: TaskPlanner, C: np.ndarray, t: float, T: float, ends: Ends, carried, width: float):
+    """The SQP's first step from `C` (the planner's _sqp_step output), the horizon's stretch and whether relaxed.
+    The measured start may not allow reaching the goal at rest within the rate bounds by the phase's end (the hands
+    lag, the phase is short): then the smallest stretch that works. Last, the clearance rows violated now (the hands
+    inside a margin, linearisations that contradict) ask only not to get worse. When the longest stretch fails too,
+    the ones between are not tried."""
+
+    def attempt(stretch: float, relaxed: bool = False):
+        fix_ends(C, *ends, T * stretch)
+        return planner._sqp_step(C, t, T * stretch, carried, width, relaxed)
+
+    out, stretch, relaxed = attempt(STRETCHES[0]), STRETCHES[0], False
+    if out[0] is not None:
+        return out, stretch, relaxed
+    tries = [(s, False) for s in STRETCHES[1:]] if attempt(STRETCHES[-1])[0] is not None else []
+    for stretch, relaxed in tries + [(s, True) for s in STRETCHES]:
+        out = attempt(stretch, relaxed)
+        if out[0] is not None:
+            break
+    return out, stretch, relaxed
+
+
+def on_route_plan(
+    planner: TaskPlanner, solved: Solved, t: float, T: float, ends: Ends, carried, width: float, via=None
+) -> Solved:
+    """The SQP again from the straight line moved onto a planar route (plan_seed.py) through `via` (2,) if given;
+    taken if it ranks above `solved` or, through `via`, succeeds."""
+    C = straight_to(ends, planner.M)
+    fix_ends(C, *ends, T)
+    moved = on_route(C, ends, planner.obstacles, carried, planner.ground, via, (planner.B, planner.s, planner.free))
+    if moved is None:  # no way round, or nothing in the way: nothing to seed
+        return solved
+    seeded = planner._solve(moved, t, T, ends, planner.spec.phase_iterations, carried, width)
+    seeded = replace(seeded, status=seeded.status + " (route)")
+    better = rank(seeded, planner.B, planner.obstacles) > rank(solved, planner.B, planner.obstacles)
+    return seeded if better or (via is not None and seeded.success) else solved

@@ -1,0 +1,93 @@
+"""A base pose to work from when the written stance is blocked: one pose (x, y, yaw) of the base, clear of every
+obstacle and table leg by the margins the whole-body MPC keeps (its own clearance rows: footprint and hands), from
+which the hands reach every target of a group of phases with the pads as the planner plans them (level, turned
+about the vertical to face each other), every joint within its limits.
+
+Why: the whole-body MPC only tracks the hands; where the base stands follows from its local optimum, which starts
+from the base behind the hands as at home. When an obstacle's margin holds the base off that spot, the optimum
+lets a hand sag or the grip twist rather than walk the base round to a pose that works. This IK is global in the
+base (seeded at headings all round the targets) and gives the whole-body MPC a base reference for the group.
+
+One NLP (IPOPT): the base shared, a joint vector per phase, the arms' distance from home as the cost. Each start
+is a local solve: a pose found is one that works; none found is not a proof that none exists."""
+
+from __future__ import annotations
+
+import casadi as cs
+import numpy as np
+
+from harmony_cli.capture import captured_output
+from harmony_cli.mpc.clearance import clearance_margins, scene_clearances
+from harmony_cli.mpc.knot_params import KnotLayout
+from harmony_cli.robot.model import Robot
+from harmony_cli.scenario import Scenario
+
+TURNS_DEG = (0, 45, -45, 90, -90, 135, -135, 180)  # base headings tried, from the written one
+POSITION_TOL = 0.01  # [m] each hand from its target
+ROTATION_TOL = 1e-3  # ||R - R_ref||_F^2 per hand (about 1.3 deg)
+
+
+def stance_pose(
+    scenario: Scenario, robot: Robot, targets: np.ndarray, headings: np.ndarray
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The base pose (x, y, yaw) [m, rad] from which the hands reach `targets` (phases, hands, 3) with the pads
+    turned to `headings` (phases,) (the planner's heading: 0 at home), clear of the scene, and the joint positions
+    (phases, all joints) that do; from the first start that converges (the written heading's first, then turned
+    ever further from it); None if none converged."""
+    home = robot.home.copy()
+    home[list(robot.base_joints)] = 0.0
+    rotations = [r for _, r in robot.hand_poses_numeric(home)]
+    free = [i for i in range(robot.n_dof) if i not in robot.base_joints and i not in robot.pinned_joints]
+    base = cs.SX.sym("base", 3)
+    clearances, poses = scene_clearances(scenario.world, scenario.planner.hand_radius, scenario.robot.base_margin)
+    layout = KnotLayout(len(robot.end_effectors), len(clearances))
+    ref = np.r_[np.zeros(layout.hands_end), poses]
+    footprint = tuple((x, y, r) for x, y, r in scenario.robot.footprint) if clearances else ()
+    variables, rows, cost = [], [], 0
+    for pair, heading in zip(targets, headings):
+        x = cs.SX.sym("x", len(free))
+        q = cs.SX(home)
+        for k, i in enumerate(free):
+            q[i] = x[k]
+        for k, i in enumerate(robot.base_joints):
+            q[i] = base[k]
+        turn = _rz(heading)
+        for h, target in enumerate(pair):
+            p, R = robot.hand_pose(h, q)
+            rows += [(p - target, -POSITION_TOL, POSITION_TOL), (cs.sumsqr(R - turn @ rotations[h]), 0.0, ROTATION_TOL)]
+        if clearances:
+            rows.append((cs.vertcat(*clearance_margins(robot, q, ref, layout, clearances, footprint)), 0.0, np.inf))
+        variables.append(x)
+        cost += cs.sumsqr(x - home[free])
+    g = cs.vertcat(*[r for r, _, _ in rows])
+    lbg = np.concatenate([np.full(r.numel(), lo) for r, lo, _ in rows])
+    ubg = np.concatenate([np.full(r.numel(), hi) for r, _, hi in rows])
+    unbounded = np.isin(free, robot.continuous)
+    lbx = np.r_[np.full(3, -np.inf), np.tile(np.where(unbounded, -np.inf, robot.lower[free]), len(targets))]
+    ubx = np.r_[np.full(3, np.inf), np.tile(np.where(unbounded, np.inf, robot.upper[free]), len(targets))]
+    options = {"ipopt.print_level": 0, "print_time": False, "ipopt.max_iter": 300, "ipopt.sb": "yes"}
+    solver = cs.nlpsol("stance", "ipopt", {"x": cs.vertcat(base, *variables), "f": cost, "g": g}, options)
+    behind = _behind(robot, home)
+    middle = targets.mean(axis=(0, 1))[:2]
+    for turn in np.deg2rad(TURNS_DEG):
+        yaw = float(headings[-1]) + turn
+        start = np.r_[middle - _rz(yaw)[:2, :2] @ behind, yaw]
+        with captured_output():
+            out = solver(x0=np.r_[start, np.tile(home[free], len(targets))], lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        if solver.stats()["success"]:
+            x = np.asarray(out["x"]).ravel()
+            joints = np.tile(home, (len(targets), 1))
+            joints[:, free] = x[3:].reshape(len(targets), len(free))
+            joints[:, list(robot.base_joints)] = x[:3]
+            return x[:3], joints
+    return None
+
+
+def _behind(robot: Robot, home: np.ndarray) -> np.ndarray:
+    """The hands' midpoint at home from the base's origin, in the base frame (plan view)."""
+    return np.mean([p.ravel()[:2] for p, _ in robot.hand_poses_numeric(home)], axis=0)
+
+
+def _rz(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
