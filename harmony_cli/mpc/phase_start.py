@@ -24,17 +24,18 @@ def first_step(planner: TaskPlanner, C: np.ndarray, t: float, T: float, ends: En
     """The SQP's first step from `C` (the planner's _sqp_step output), the horizon's stretch and whether relaxed.
     The measured start may not allow reaching the goal at rest within the rate bounds by the phase's end (the hands
     lag, the phase is short): then the smallest stretch that works. Last, the clearance rows violated now (the hands
-    inside a margin, linearisations that contradict) ask only not to get worse. When the longest stretch fails too,
-    the ones between are not tried."""
+    inside a margin, linearisations that contradict) ask only not to get worse. When the first two fail and the
+    longest fails too, the ones between are not tried."""
 
     def attempt(stretch: float, relaxed: bool = False):
         fix_ends(C, *ends, T * stretch)
         return planner._sqp_step(C, t, T * stretch, carried, width, relaxed)
 
-    out, stretch, relaxed = attempt(STRETCHES[0]), STRETCHES[0], False
-    if out[0] is not None:
-        return out, stretch, relaxed
-    tries = [(s, False) for s in STRETCHES[1:]] if attempt(STRETCHES[-1])[0] is not None else []
+    for stretch in STRETCHES[:2]:  # the horizon as it is, then the stretch most starts need
+        if (out := attempt(stretch))[0] is not None:
+            return out, stretch, False
+    tries = [(s, False) for s in STRETCHES[2:]] if attempt(STRETCHES[-1])[0] is not None else []
+    relaxed = False
     for stretch, relaxed in tries + [(s, True) for s in STRETCHES]:
         out = attempt(stretch, relaxed)
         if out[0] is not None:
