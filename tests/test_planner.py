@@ -252,3 +252,13 @@ def test_a_phase_s_first_plan_that_wants_a_route_gets_it_on_the_next_step():
     assert not first.status.endswith("(route)") and planner.route_pending  # one SQP on this step
     second = planner.step(0.02, *args)
     assert second.status.endswith("(route)") and not planner.route_pending
+
+
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_a_phase_with_a_point_to_pass_gets_the_route_through_it_at_once(side):
+    planner = TaskPlanner(SPEC, [_cylinder(0.0)], HOME, OFFSET)
+    planner.via = np.array([1.7, 0.8 * side])  # beside the cylinder on the straight path, on either side
+    result = planner.step(0.0, HandState(START, np.zeros((2, 3)), 0.0), GOAL, PHASE_END, 0, CARRYING)
+    assert result.status.endswith("(route)") and not planner.route_pending
+    middle = result.plan.sample(np.linspace(0.0, PHASE_END, 200))[0].mean(axis=1)
+    assert side * middle[np.argmin(np.abs(middle[:, 0] - 1.7)), 1] > 0.3  # passes the cylinder on the via's side

@@ -44,10 +44,10 @@ def first_step(planner: TaskPlanner, C: np.ndarray, t: float, T: float, ends: En
 
 
 def on_route_plan(
-    planner: TaskPlanner, solved: Solved, t: float, T: float, ends: Ends, carried, width: float, via=None
-) -> Solved:
-    """The SQP again from the straight line moved onto a planar route (plan_seed.py) through `via` (2,) if given;
-    taken if it ranks above `solved` or, through `via`, succeeds."""
+    planner: TaskPlanner, solved: Solved | None, t: float, T: float, ends: Ends, carried, width: float, via=None
+) -> Solved | None:
+    """The SQP from the straight line moved onto a planar route (plan_seed.py) through `via` (2,) if given; taken
+    if it ranks above `solved` (if any) or, through `via`, succeeds; `solved` when there is no route."""
     C = straight_to(ends, planner.M)
     fix_ends(C, *ends, T)
     moved = on_route(C, ends, planner.obstacles, carried, planner.ground, via, (planner.B, planner.s, planner.free))
@@ -55,5 +55,6 @@ def on_route_plan(
         return solved
     seeded = planner._solve(moved, t, T, ends, planner.spec.phase_iterations, carried, width)
     seeded = replace(seeded, status=seeded.status + " (route)")
-    better = rank(seeded, planner.B, planner.obstacles) > rank(solved, planner.B, planner.obstacles)
-    return seeded if better or (via is not None and seeded.success) else solved
+    if solved is None or (via is not None and seeded.success):
+        return seeded
+    return seeded if rank(seeded, planner.B, planner.obstacles) > rank(solved, planner.B, planner.obstacles) else solved

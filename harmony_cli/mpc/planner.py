@@ -14,11 +14,12 @@ iteration) on every other step; the horizon is stretched when the bounds cannot 
 Hands below the arms' reach with the pads level (robot/reach.py): a bound on the z control points. The base follows
 the hands: soft rows keep its footprint, carried behind the hands as at home, clear of the obstacles and table legs
 (plan_base.py). Global guidance: a local SQP linearised at the straight line cannot find its way round an obstacle
-on it. When a phase's first plan does not converge, misses a clearance or splits the hands, or has a point to pass
-(`via`: a base pose that works at a blocked stance, tasks/stance_pose.py), the next step runs the SQP again from the
-straight line moved onto the shortest planar route round obstacles and tables, wide enough for the base (plan_seed,
-route.py), through `via`, and takes it if it ranks higher or passes `via` (status "... (route)"); a failed plan
-tries the route at once.
+on it. When a phase's first plan does not converge, misses a clearance or splits the hands, the next step runs the
+SQP again from the straight line moved onto the shortest planar route round obstacles and tables, wide enough for
+the base (plan_seed, route.py), and takes it if it ranks higher (status "... (route)"); a failed plan tries the
+route at once. A phase whose first plan has a point to pass (`via`: a base pose that works at a blocked stance,
+tasks/stance_pose.py) gets the route through it at once, without the straight line's SQP (which leads to the
+blocked side): one SQP a control step (phase_start.py).
 """
 
 from __future__ import annotations
@@ -93,13 +94,13 @@ class TaskPlanner:
         self.phase: int | None = None
         self.t_plan, self.T_plan = 0.0, 1.0
         self.via: np.ndarray | None = None  # (2,) a point a phase's first plan routes through (a chosen stance)
-        self._route: tuple | None = None  # (via,): a route to try on the next step (the phase's first plan wants one)
+        self._route_next = False  # whether the next step tries a route (the phase's first plan wants one)
         self.path = f"Gauss-Newton SQP on the control points, {spec.qp} QP, numpy derivatives"
 
     @property
     def route_pending(self) -> bool:
         """Whether the next step tries a route (the phase's first plan wanted one)."""
-        return self._route is not None
+        return self._route_next
 
     def _bind_buffers(self) -> None:
         """What each step writes in place (no per-step allocation or copy): the Jacobian over the free control points
@@ -161,14 +162,17 @@ class TaskPlanner:
         if key != self._relief_key:
             self._reliefs, self._relief_key = goal_reliefs(self.obstacles, goal, t + T, carried), key
         ends = (state, goal, heading_goal)
-        solved = self._solve(C, t, T, ends, iterations, carried, width)
-        if fresh and solved.success:  # a route, if this plan wants one, on the next step: one SQP a step at most
-            wanted = self.via is not None or not is_clean(solved, self.B, self.obstacles)
-            self._route, self.via = ((self.via,) if self.obstacles and wanted else None), None
-        elif self.obstacles and (self._route is not None or not solved.success):
-            via = self.via if fresh else (self._route or (None,))[0]
-            self._route, self.via = None, None
-            solved = on_route_plan(self, solved, t, T, ends, carried, width, via)
+        via, self.via = (self.via, None) if fresh else (None, None)
+        self._route_next = self._route_next and not fresh
+        # the way to a chosen stance is known (the straight line leads to the blocked side): its route's SQP alone
+        solved = on_route_plan(self, None, t, T, ends, carried, width, via) if via is not None else None
+        if solved is None or not solved.success:
+            solved = self._solve(C, t, T, ends, iterations, carried, width)
+            if fresh and solved.success:  # a route, if this plan wants one, on the next step: one SQP a step
+                self._route_next = bool(self.obstacles) and not is_clean(solved, self.B, self.obstacles)
+            elif self.obstacles and (self._route_next or not solved.success):
+                self._route_next = False
+                solved = on_route_plan(self, solved, t, T, ends, carried, width) or solved
         C, success, status = solved.C, solved.success, solved.status
         if success and not np.isfinite(C).all():  # NaN / inf never becomes the plan: the last one is held
             success, status = False, "non-finite plan"
