@@ -162,8 +162,8 @@ class TaskPlanner:
         if key != self._relief_key:
             self._reliefs, self._relief_key = goal_reliefs(self.obstacles, goal, t + T, carried), key
         ends = (state, goal, heading_goal)
-        via, self.via = (self.via, None) if fresh else (None, None)
-        self._route_next = self._route_next and not fresh
+        via = self.via if fresh else None  # TaskReferences sets it at a phase change: the phase's first plan only
+        self.via, self._route_next = None, self._route_next and not fresh
         # the way to a chosen stance is known (the straight line leads to the blocked side): its route's SQP alone
         solved = on_route_plan(self, None, t, T, ends, carried, width, via) if via is not None else None
         if solved is None or not solved.success:

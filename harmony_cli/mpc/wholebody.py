@@ -118,11 +118,10 @@ class WholeBodyMPC:
         that rings for a few periods (a held box's pads let go). Where a position limit leaves no room, the limit."""
         assert self.max_acceleration is not None
         where, lo, hi = self.transcription.velocity_band(x0, q_now, self.max_acceleration * self.control_dt)
-        lbx, ubx = lbx.copy(), ubx.copy()
         lower, upper = np.maximum(lbx[where], lo), np.minimum(ubx[where], hi)
-        joints = np.arange(lower.size) < self.robot.n_dof  # not the compliant offsets
-        room = joints & (lower <= upper)
-        lbx[where][room], ubx[where][room] = lower[room], upper[room]
+        room = (np.arange(lower.size) < self.robot.n_dof) & (lower <= upper)  # the joints, not the compliant offsets
+        lbx, ubx = lbx.copy(), ubx.copy()
+        lbx[where], ubx[where] = np.where(room, lower, lbx[where]), np.where(room, upper, ubx[where])
         return lbx, ubx
 
     def _command(self, x: np.ndarray, held: bool) -> Command:

@@ -57,24 +57,31 @@ def _value(found: tuple[float, np.ndarray] | None) -> float | None:
 
 
 def _cached(robot: Robot, question: tuple, compute) -> float | None:
-    home = _home(robot)
+    home = home_at_origin(robot)
     key = (robot.joint_names, robot.end_effectors, robot.pinned_joints, home.tolist(), question)
     return cached_json("reach", robot.urdf.read_bytes() + repr(key).encode(), compute)
 
 
-def _home(robot: Robot) -> np.ndarray:
+def home_at_origin(robot: Robot) -> np.ndarray:
+    """The home pose with the base at the origin (where the robot starts does not change its arms)."""
     home = robot.home.copy()
-    home[list(robot.base_joints)] = 0.0  # where the robot starts does not change its arms
+    home[list(robot.base_joints)] = 0.0
     return home
+
+
+def arm_joints(robot: Robot) -> tuple[list[int], np.ndarray, np.ndarray]:
+    """The joints that move but the base's and the pinned ones (indices), and their bounds (continuous: none)."""
+    free = [i for i in range(robot.n_dof) if i not in robot.base_joints and i not in robot.pinned_joints]
+    unbounded = np.isin(free, robot.continuous)
+    return free, np.where(unbounded, -np.inf, robot.lower[free]), np.where(unbounded, np.inf, robot.upper[free])
 
 
 class _Level:
     """The joints that move (not the base, not the pinned ones) as NLP variables, with a heading psi for the pads."""
 
     def __init__(self, robot: Robot):
-        self.robot, self.home = robot, _home(robot)
-        fixed = set(robot.base_joints) | set(robot.pinned_joints)
-        self.free = [i for i in range(robot.n_dof) if i not in fixed]
+        self.robot, self.home = robot, home_at_origin(robot)
+        self.free, self.lower, self.upper = arm_joints(robot)
         self.x, self.psi = cs.SX.sym("x", len(self.free)), cs.SX.sym("psi")
         q = cs.SX(self.home)
         for k, i in enumerate(self.free):
@@ -85,16 +92,13 @@ class _Level:
     def best(self, objective, equalities: list, hands: tuple[int, ...]) -> tuple[float, np.ndarray] | None:
         """The largest `objective` over the starts with the `equalities` = 0 and the `hands`' pads level, turned
         together about the vertical: ||R_h - Rz(psi) R_h,home||_F^2 <= ROTATION_TOL."""
-        robot, free = self.robot, self.free
+        free, lower, upper = self.free, self.lower, self.upper
         c, s = cs.cos(self.psi), cs.sin(self.psi)
         turn = cs.vertcat(cs.horzcat(c, -s, 0), cs.horzcat(s, c, 0), cs.horzcat(0, 0, 1))
         rotations = [cs.sumsqr(self.poses[h][1] - turn @ cs.DM(self.home_rotations[h])) for h in hands]
         nlp = {"x": cs.vertcat(self.x, self.psi), "f": -objective, "g": cs.vertcat(*equalities, *rotations)}
         options = {"ipopt.print_level": 0, "print_time": False, "ipopt.max_iter": 300, "ipopt.sb": "yes"}
         solver = cs.nlpsol("reach", "ipopt", nlp, options)
-        unbounded = np.isin(free, robot.continuous)
-        lower = np.where(unbounded, -np.inf, robot.lower[free])
-        upper = np.where(unbounded, np.inf, robot.upper[free])
         ubg = np.r_[np.zeros(len(equalities)), np.full(len(hands), ROTATION_TOL)]
         rng = np.random.default_rng(0)
         best: tuple[float, np.ndarray] | None = None

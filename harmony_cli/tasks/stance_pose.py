@@ -6,7 +6,8 @@ about the vertical to face each other), every joint within its limits.
 Why: the whole-body MPC only tracks the hands; where the base stands follows from its local optimum, which starts
 from the base behind the hands as at home. When an obstacle's margin holds the base off that spot, the optimum
 lets a hand sag or the grip twist rather than walk the base round to a pose that works. This IK is global in the
-base (seeded at headings all round the targets) and gives the whole-body MPC a base reference for the group.
+base (seeded at headings all round the targets); the planner routes the hands through the pose's position
+(two_stage.py), so the base, which follows them, arrives on the side where it can stand.
 
 One NLP (IPOPT): the base shared, a joint vector per phase, the arms' distance from home as the cost. Each start
 is a local solve: a pose found is one that works; none found is not a proof that none exists."""
@@ -17,9 +18,11 @@ import casadi as cs
 import numpy as np
 
 from harmony_cli.capture import captured_output
+from harmony_cli.maths.rotations import rot_z
 from harmony_cli.mpc.clearance import clearance_margins, scene_clearances
 from harmony_cli.mpc.knot_params import KnotLayout
 from harmony_cli.robot.model import Robot
+from harmony_cli.robot.reach import arm_joints, home_at_origin
 from harmony_cli.scenario import Scenario
 
 TURNS_DEG = (0, 45, -45, 90, -90, 135, -135, 180)  # base headings tried, from the written one
@@ -34,10 +37,9 @@ def stance_pose(
     turned to `headings` (phases,) (the planner's heading: 0 at home), clear of the scene, and the joint positions
     (phases, all joints) that do; from the first start that converges (the written heading's first, then turned
     ever further from it); None if none converged."""
-    home = robot.home.copy()
-    home[list(robot.base_joints)] = 0.0
+    home = home_at_origin(robot)
     rotations = [r for _, r in robot.hand_poses_numeric(home)]
-    free = [i for i in range(robot.n_dof) if i not in robot.base_joints and i not in robot.pinned_joints]
+    free, lower, upper = arm_joints(robot)
     base = cs.SX.sym("base", 3)
     clearances, poses = scene_clearances(scenario.world, scenario.planner.hand_radius, scenario.robot.base_margin)
     layout = KnotLayout(len(robot.end_effectors), len(clearances))
@@ -51,7 +53,7 @@ def stance_pose(
             q[i] = x[k]
         for k, i in enumerate(robot.base_joints):
             q[i] = base[k]
-        turn = _rz(heading)
+        turn = rot_z(np.asarray(heading))
         for h, target in enumerate(pair):
             p, R = robot.hand_pose(h, q)
             rows += [(p - target, -POSITION_TOL, POSITION_TOL), (cs.sumsqr(R - turn @ rotations[h]), 0.0, ROTATION_TOL)]
@@ -62,16 +64,15 @@ def stance_pose(
     g = cs.vertcat(*[r for r, _, _ in rows])
     lbg = np.concatenate([np.full(r.numel(), lo) for r, lo, _ in rows])
     ubg = np.concatenate([np.full(r.numel(), hi) for r, _, hi in rows])
-    unbounded = np.isin(free, robot.continuous)
-    lbx = np.r_[np.full(3, -np.inf), np.tile(np.where(unbounded, -np.inf, robot.lower[free]), len(targets))]
-    ubx = np.r_[np.full(3, np.inf), np.tile(np.where(unbounded, np.inf, robot.upper[free]), len(targets))]
+    lbx = np.r_[np.full(3, -np.inf), np.tile(lower, len(targets))]
+    ubx = np.r_[np.full(3, np.inf), np.tile(upper, len(targets))]
     options = {"ipopt.print_level": 0, "print_time": False, "ipopt.max_iter": 300, "ipopt.sb": "yes"}
     solver = cs.nlpsol("stance", "ipopt", {"x": cs.vertcat(base, *variables), "f": cost, "g": g}, options)
     behind = _behind(robot, home)
     middle = targets.mean(axis=(0, 1))[:2]
     for turn in np.deg2rad(TURNS_DEG):
         yaw = float(headings[-1]) + turn
-        start = np.r_[middle - _rz(yaw)[:2, :2] @ behind, yaw]
+        start = np.r_[middle - rot_z(np.asarray(yaw))[:2, :2] @ behind, yaw]
         with captured_output():
             out = solver(x0=np.r_[start, np.tile(home[free], len(targets))], lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         if solver.stats()["success"]:
@@ -86,8 +87,3 @@ def stance_pose(
 def _behind(robot: Robot, home: np.ndarray) -> np.ndarray:
     """The hands' midpoint at home from the base's origin, in the base frame (plan view)."""
     return np.mean([p.ravel()[:2] for p, _ in robot.hand_poses_numeric(home)], axis=0)
-
-
-def _rz(angle: float) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
