@@ -52,8 +52,8 @@ def test_a_carry_written_above_the_ceiling_is_warned_of_and_the_paper_s_is_not()
     for overrides, expected in (([], 0), (high, 1)):
         scenario = load_scenario(path, overrides)
         references = TaskReferences(robot_of(scenario, path.parent), scenario)
-        assert len(references.reach_warnings) == expected
-    assert references.reach_warnings[0].startswith("reach: phase carry asks the left hand at z = 1.750 m, above the")
+        assert len(references.warnings) == expected
+    assert references.warnings[0].startswith("reach: phase carry asks the left hand at z = 1.750 m, above the")
 
 
 def test_a_carry_higher_than_either_arm_reaches_is_refused_before_the_robot_moves():

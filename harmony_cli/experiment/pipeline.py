@@ -114,11 +114,11 @@ def _notes(scenario: Scenario, scenario_dir: Path, built: Built, progress: bool)
 
 def task_warnings(built: Built) -> list[str]:
     """A line each: written grip and place stances that leave the base inside a margin (tasks/stance.py), hand
-    targets above what the arms reach together (robot/reach.py)."""
+    targets above what the arms reach together (robot/reach.py), free-handed goals inside a margin (clear_goal.py)."""
     if not isinstance(built.references, TaskReferences):
         return []
     stances = [w for stance in built.references.stances if (w := stance.warning()) is not None]
-    return stances + built.references.reach_warnings
+    return stances + built.references.warnings
 
 
 def solver_paths(built: Built) -> dict[str, str]:
