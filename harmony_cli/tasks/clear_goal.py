@@ -21,9 +21,8 @@ def cleared(goal: np.ndarray, obstacles: list[Obstacle]) -> tuple[np.ndarray, fl
     """The hands' `goal` (hands, 3) shifted clear of every obstacle that stands still (its clearance: margin +
     hand radius, and SPARE): the goal, how far it moved [m] and the index of the obstacle it was inside (None: not
     inside one; the goal as it is when no shift up to FARTHEST clears it)."""
-    still = [o for o in obstacles if o.motion is None]
-    standing = [k for k, o in enumerate(obstacles) if o.motion is None]
-    inside = [k for k in standing if (obstacles[k].shape.distance(goal)[0] < obstacles[k].clearance).any()]
+    still = [k for k, o in enumerate(obstacles) if o.motion is None]
+    inside = [k for k in still if (obstacles[k].shape.distance(goal)[0] < obstacles[k].clearance).any()]
     if not inside:
         return goal, 0.0, None
     radii = np.arange(1, int(round(FARTHEST / STEP)) + 1) * STEP
@@ -31,11 +30,11 @@ def cleared(goal: np.ndarray, obstacles: list[Obstacle]) -> tuple[np.ndarray, fl
     shifts = (radii[:, None, None] * np.stack([np.cos(angles), np.sin(angles)], axis=-1)[None]).reshape(-1, 2)
     moved = goal[None] + np.pad(shifts, ((0, 0), (0, 1)))[:, None]  # (shifts, hands, 3)
     points = moved.reshape(-1, 3)
-    margin = np.min([o.shape.distance(points)[0] - o.clearance - SPARE for o in still], axis=0)
+    margin = np.min([obstacles[k].shape.distance(points)[0] - obstacles[k].clearance - SPARE for k in still], axis=0)
     worst = margin.reshape(len(shifts), -1).min(axis=1)  # each shift's hand nearest an obstacle
     ok = np.flatnonzero(worst >= 0.0)
     if not len(ok):
         return goal, 0.0, inside[0]
-    first = ok[np.abs(np.hypot(*shifts[ok].T) - np.hypot(*shifts[ok[0]])) < 1e-9]  # the shortest clear shifts
+    first = ok[ok // DIRECTIONS == ok[0] // DIRECTIONS]  # the shortest clear shifts (shifts go ring by ring)
     best = first[np.argmax(worst[first])]
     return moved[best], float(np.hypot(*shifts[best])), inside[0]

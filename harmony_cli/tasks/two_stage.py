@@ -19,7 +19,7 @@ from harmony_cli.mpc.planner import TaskPlanner
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.observation import Observation
 from harmony_cli.robot.reach import hand_ceiling
-from harmony_cli.tasks.clear_goal import cleared
+from harmony_cli.tasks.clear_goal import FARTHEST, cleared
 from harmony_cli.tasks.motion import centre_at
 from harmony_cli.tasks.passage import narrowest_width
 from harmony_cli.tasks.scene_check import target_position
@@ -57,10 +57,10 @@ class TaskReferences:
         width = _grip_width(scenario, robot, hands)
         self.ceiling = hand_ceiling(robot, width)
         self.warnings = _above(scenario, robot.hand_names, self.ceiling, width)
-        self.warnings += _inside(scenario, robot.hand_names, obstacles)
         self.planner = TaskPlanner(
             scenario.planner, obstacles, self.home_rotations, offset, _ground(scenario), base, self.ceiling
         )
+        self.warnings += self._goals_inside(robot.hand_names)
         self.stances = _stances(scenario, robot, hands, offset, obstacles)
         self.vias = _vias(scenario, robot, self.stances, offset)  # phase index -> (2,): see _vias
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
@@ -82,8 +82,8 @@ class TaskReferences:
             if obs.box_position is not None:
                 poses["box"] = (obs.box_position, obs.box_yaw)
             self.phase, self.goal = active, self.schedule.goal(active.spec, obs.hand_positions, poses)
-            if not self.schedule.holding(t) and not self._at_box(obs):
-                self.goal = self._clear(self.goal)
+            if self._free_handed(self.goal, obs.box_position, t):
+                self.goal = cleared(self.goal, self.planner.obstacles)[0]  # said before the run: _goals_inside
             self.planner.via = self.vias.get(active.index)
         holding = self.schedule.holding(t)
         log = {
@@ -111,16 +111,32 @@ class TaskReferences:
             force_ref = np.tile(self.schedule.force(t + knot_times), (len(self.schedule.hand_names), 1))
         return HandTargets(positions, rotations, positions[0] if now is None else now, force_ref, log)
 
-    def _at_box(self, obs: Observation) -> bool:
-        """Whether the hands' goal works at the box (within NEAR of it, plan view): no box, no."""
-        if obs.box_position is None:
-            return False
-        return bool(np.linalg.norm(self.goal.mean(axis=0)[:2] - obs.box_position[:2]) <= NEAR)
+    def _free_handed(self, goal: np.ndarray, box: np.ndarray | None, t: float) -> bool:
+        """Whether a phase starting at `t` with the hands' `goal` (hands, 3) neither holds the box nor works at it
+        (within NEAR of the `box` position, plan view): an approach, a retreat, whose goal may move (clear_goal.py)."""
+        at_box = box is not None and float(np.hypot(*(goal.mean(axis=0) - box)[:2])) <= NEAR
+        return not at_box and not self.schedule.holding(t)
 
-    def _clear(self, goal: np.ndarray) -> np.ndarray:
-        """A free-handed phase's goal out of the obstacles' margins (clear_goal.py; said before the robot moves,
-        for the box where it starts: _inside)."""
-        return cleared(goal, self.planner.obstacles)[0]
+    def _goals_inside(self, hand_names: tuple[str, ...]) -> list[str]:
+        """A line per free-handed phase whose written goal (the box where it starts) is inside an obstacle's
+        margin: how far its goal moves to clear it."""
+        assert self.scenario.task is not None
+        box = self.scenario.world.box
+        lines = []
+        starts = np.r_[0.0, self.schedule.ends[:-1]]
+        for phase, start in zip(self.scenario.task.phases, starts):
+            written = [target_position(phase.hands.get(h), self.scenario) for h in hand_names]
+            if any(g is None for g in written):
+                continue
+            goal = np.array(written)
+            if not self._free_handed(goal, None if box is None else np.asarray(box.position), float(start)):
+                continue
+            _, by, inside = cleared(goal, self.planner.obstacles)
+            if inside is not None:
+                fix = f"it moves {by:.2f} m to clear it" if by > 0 else f"no shift up to {FARTHEST:g} m clears it"
+                name = self.scenario.world.obstacles[inside].name
+                lines.append(f"goal: phase {phase.name}'s hand goal is inside obstacle {name}'s margin; {fix}")
+        return lines
 
     @property
     def delay(self) -> float:
@@ -177,28 +193,6 @@ def _above(scenario: Scenario, hand_names: tuple[str, ...], ceiling: float | Non
                 f"reach: phase {phase.name} asks the {top[1]} hand at z = {top[0]:.3f} m, above the {ceiling:.3f} m "
                 f"both hands reach together with the pads level ({width:.3f} m apart): the plan stays below it"
             )
-    return lines
-
-
-def _inside(scenario: Scenario, hand_names: tuple[str, ...], obstacles: list[Obstacle]) -> list[str]:
-    """A line per free-handed phase (not holding the box, not at it) whose written hand goal, the box where it
-    starts, is inside an obstacle's margin: how far the phase's goal moves to clear it (clear_goal.py)."""
-    if scenario.task is None:
-        return []
-    box = None if scenario.world.box is None else np.asarray(scenario.world.box.position, dtype=float)
-    lines, held = [], False
-    for phase in scenario.task.phases:
-        held = held and not phase.release
-        written = [target_position(phase.hands.get(h), scenario) for h in hand_names]
-        goal = np.array(written) if all(g is not None for g in written) else None
-        at_box = goal is not None and box is not None and np.hypot(*(goal.mean(axis=0) - box)[:2]) <= NEAR
-        if not held and not at_box and goal is not None:
-            _, by, inside = cleared(goal, obstacles)
-            if inside is not None:
-                name = scenario.world.obstacles[inside].name
-                fix = f"it moves {by:.2f} m to clear it" if by > 0 else "no shift up to 1 m clears it"
-                lines.append(f"goal: phase {phase.name}'s hand goal is inside obstacle {name}'s margin; {fix}")
-        held = held or phase.grasp
     return lines
 
 
