@@ -100,3 +100,14 @@ def test_a_phase_that_waited_for_its_goal_in_vain_is_named_after_the_reason():
         "the box ended 50.0 cm from its goal; before that, phase carry timed out: its goal not reached after "
         "waiting 12.0 s (the hands 0.43 m from it)"
     )
+
+
+def test_a_phase_that_timed_out_after_the_drop_is_said_to_come_after_it():
+    """The box fell 0.04 s into the carry; the carry waited in vain until the next phase at 13 s: after, not before."""
+    steps = _steps([1.165, 1.165, 0.6, 0.15], [True] * 4)
+    phases = [{"name": "carry", "start_s": 0.0, "completed_s": None, "final_goal_error_m": 0.5, "waited_s": 12.0}]
+    phases.append({"name": "lower", "start_s": 13.0, "completed_s": None, "final_goal_error_m": 0.5, "waited_s": 0.0})
+    task = {"success": False, "box_dropped": True, "box_fell_s": steps["t"][2], "box_final": [5.0, 2.0, 0.15]}
+    reason = task_failure(task | {"phases": phases}, steps)["reason"]
+    assert reason.startswith("the box fell off the tables while held at t = 0.04 s (carry)")
+    assert "; after that, phase carry timed out" in reason and "before that" not in reason

@@ -3,7 +3,8 @@ table and its task outcome (summary.json `task`), so nobody has to dig it out of
 
 Categories, the first that applies: dropped (the box left the hands while held, or fell off the tables), collision,
 box tipped, box off goal, then (a task without a box: every phase must reach its goal) phase timeout, and solver
-failures. A phase that waited for its goal and never reached it (tasks/schedule.py) is named after the reason."""
+failures. A phase that waited for its goal and never reached it (tasks/schedule.py) is named after the reason, as
+before or after it: a carry that waits in vain because the box fell earlier did not cause the fall."""
 
 from __future__ import annotations
 
@@ -24,6 +25,10 @@ def fell_at(steps: pd.DataFrame, table_tops: list[float], box_height: float) -> 
     if not below.any() or below[0]:
         return None
     return float(steps["t"].to_numpy()[np.argmax(below)])
+
+
+def _first_time(steps: pd.DataFrame, rows: pd.Series) -> float | None:
+    return float(steps["t"][rows].iloc[0]) if rows.any() else None
 
 
 def _when(steps: pd.DataFrame, rows: pd.Series) -> str:
@@ -50,12 +55,27 @@ def _dropped(task: dict, steps: pd.DataFrame) -> str:
     return "; ".join(parts)
 
 
-def _collision(task: dict, steps: pd.DataFrame) -> str:
-    name, who, value = min(
+def _dropped_s(task: dict, steps: pd.DataFrame) -> float | None:
+    times = [_first_time(steps, steps["dropped"].astype(bool)), task.get("box_fell_s")]
+    return min((t for t in times if t is not None), default=None)
+
+
+def _closest(task: dict) -> tuple[str, str, float]:
+    """(obstacle, robot or box, clearance [m]) of the smallest clearance of the run."""
+    return min(
         ((name, who, v) for name, c in task["min_clearance_m"].items() for who, v in c.items()), key=lambda n: n[2]
     )
+
+
+def _collision(task: dict, steps: pd.DataFrame) -> str:
+    name, who, value = _closest(task)
     column = f"clearance_{who}_{name}_m"
     return f"the {who} touched obstacle {name} at {_when(steps, steps[column] <= 0)} (clearance {value:.3f} m)"
+
+
+def _collision_s(task: dict, steps: pd.DataFrame) -> float | None:
+    name, who, _ = _closest(task)
+    return _first_time(steps, steps[f"clearance_{who}_{name}_m"] <= 0)
 
 
 def _tipped(task: dict, steps: pd.DataFrame) -> str:
@@ -81,20 +101,29 @@ def _solves(task: dict, steps: pd.DataFrame) -> str:
     return f"{task.get('planner_failures', 0)} planner and {whole_body} whole-body MPC solves failed"
 
 
-# (category, applies to the task outcome, reason); the first that applies is the run's
-FAILURES: tuple[tuple[str, Callable[[dict], bool], Callable[[dict, pd.DataFrame], str]], ...] = (
-    ("dropped", lambda t: t.get("box_dropped") is True, _dropped),
-    ("collision", lambda t: t.get("clear_of_obstacles") is False, _collision),
-    ("box tipped", lambda t: t.get("box_upright") is False, _tipped),
-    ("box off goal", lambda t: t.get("box_goal_error_m") is not None, _off_goal),  # a box task's last criterion
-    ("phase timeout", lambda t: any(p.get("completed_s") is None for p in t.get("phases", [])), _timeout),
-    ("solver failures", lambda t: t.get("all_solves_succeeded") is False, _solves),
+Reason = Callable[[dict, pd.DataFrame], str]
+When = Callable[[dict, pd.DataFrame], float | None]  # when it happened [s]; None: at the end of the run
+
+
+def _at_end(task: dict, steps: pd.DataFrame) -> None:
+    return None
+
+
+# (category, applies to the task outcome, reason, when); the first that applies is the run's (box off goal is a
+# box task's last criterion)
+FAILURES: tuple[tuple[str, Callable[[dict], bool], Reason, When], ...] = (
+    ("dropped", lambda t: t.get("box_dropped") is True, _dropped, _dropped_s),
+    ("collision", lambda t: t.get("clear_of_obstacles") is False, _collision, _collision_s),
+    ("box tipped", lambda t: t.get("box_upright") is False, _tipped, _at_end),
+    ("box off goal", lambda t: t.get("box_goal_error_m") is not None, _off_goal, _at_end),
+    ("phase timeout", lambda t: any(p.get("completed_s") is None for p in t.get("phases", [])), _timeout, _at_end),
+    ("solver failures", lambda t: t.get("all_solves_succeeded") is False, _solves, _at_end),
 )
 
 
-def _first(task: dict) -> tuple[str, Callable[[dict, pd.DataFrame], str]] | None:
-    """The first failure that applies to a task outcome: (category, its reason), or None."""
-    return next(((name, reason) for name, applies, reason in FAILURES if applies(task)), None)
+def _first(task: dict) -> tuple[str, Reason, When] | None:
+    """The first failure that applies to a task outcome: (category, its reason, its time), or None."""
+    return next(((name, reason, when) for name, applies, reason, when in FAILURES if applies(task)), None)
 
 
 def failure_category(task: dict) -> str:
@@ -110,16 +139,23 @@ def task_failure(task: dict, steps: pd.DataFrame) -> dict | None:
     first = _first(task)
     if first is None:
         return {"category": "unsuccessful", "reason": "no criterion of success failed that harmony knows of"}
-    return {"category": first[0], "reason": first[1](task, steps) + _timed_out(task)}
+    category, reason, when = first
+    return {"category": category, "reason": reason(task, steps) + _timed_out(task, steps, when(task, steps))}
 
 
-def _timed_out(task: dict) -> str:
-    """The first phase that waited for its goal and never reached it (what usually came first), or ''."""
-    phase = next((p for p in task.get("phases", []) if p.get("waited_s") and p.get("completed_s") is None), None)
-    if phase is None:
+def _timed_out(task: dict, steps: pd.DataFrame, failed_s: float | None) -> str:
+    """The first phase that waited for its goal and never reached it, and whether it gave up before or after the
+    failure at `failed_s` (None: the end of the run), or ''. A phase gives up when the next one starts."""
+    phases = task.get("phases", [])
+    i = next((i for i, p in enumerate(phases) if p.get("waited_s") and p.get("completed_s") is None), None)
+    if i is None:
         return ""
+    phase = phases[i]
+    following = phases[i + 1].get("start_s") if i + 1 < len(phases) else None
+    gave_up = float(following) if following is not None else float(steps["t"].iloc[-1])
+    order = "before" if failed_s is None or gave_up <= failed_s else "after"
     away = f"{phase['final_goal_error_m']:.2f} m" if phase.get("final_goal_error_m") is not None else "?"
     return (
-        f"; before that, phase {phase['name']} timed out: its goal not reached after waiting {phase['waited_s']:.1f} s"
-        f" (the hands {away} from it)"
+        f"; {order} that, phase {phase['name']} timed out: its goal not reached after waiting "
+        f"{phase['waited_s']:.1f} s (the hands {away} from it)"
     )
