@@ -25,7 +25,7 @@ from harmony_cli.study.report import wilson, write_report
 from harmony_cli.study.runner import Options, plan_study, run_study
 from harmony_cli.study.sampling import Sampler
 from harmony_cli.study.spec import base_scenario_path, load_study
-from harmony_cli.study.table import TABLE, flatten
+from harmony_cli.study.table import TABLE, flatten, outcome, run_reason
 from harmony_cli.tasks.scene_check import SceneCheck, planar_gap
 
 STUDY = ROOT / "studies" / "smoke_box_lift.yaml"
@@ -192,3 +192,17 @@ def test_the_report_gives_each_run_that_did_not_succeed_its_replay_command(tmp_p
     report = (tmp_path / "report.md").read_text()
     assert f"`harmony view {tmp_path / 'runs/s1'}`" in report and f"`harmony view {tmp_path / 'runs/s2'}`" in report
     assert f"harmony view {tmp_path / 'runs/s0'}`" not in report
+
+
+def test_a_run_stopped_after_its_box_fell_counts_as_dropped_and_says_both():
+    """The planner failing for a second once the box is on the floor stops the run: the drop, earlier, is the cause."""
+    failure = {"category": "dropped", "reason": "the box fell off the tables at t = 47.92 s (carry)", "at_s": 47.92}
+    stopped = {"status": "failed", "failure": "solver", "reason": "the planner failed every solve from t = 53.96 s"}
+    summary = stopped | {"task": {"success": False, "failure": failure}}
+    assert outcome(summary) == "dropped"
+    assert run_reason(summary) == (
+        "the box fell off the tables at t = 47.92 s (carry); then the run stopped: the planner failed every solve "
+        "from t = 53.96 s"
+    )
+    at_end = summary | {"task": {"success": False, "failure": failure | {"category": "box off goal", "at_s": None}}}
+    assert outcome(at_end) == "run failed: solver"  # judged at the end: the stop may be why

@@ -66,6 +66,7 @@ def test_a_phase_that_never_reached_its_goal_says_how_far_the_hands_were():
     assert task_failure(task, steps) == {
         "category": "phase timeout",
         "reason": "the run ended during phase carry (t = 0.04 s), the hands 1.23 m from its goal",
+        "at_s": None,
     }
     steps["phase"] = ["carry", "carry", "lower"]
     reason = task_failure(task, steps)["reason"]
@@ -111,3 +112,11 @@ def test_a_phase_that_timed_out_after_the_drop_is_said_to_come_after_it():
     reason = task_failure(task | {"phases": phases}, steps)["reason"]
     assert reason.startswith("the box fell off the tables while held at t = 0.04 s (carry)")
     assert "; after that, phase carry timed out" in reason and "before that" not in reason
+
+
+def test_a_failure_says_when_it_happened_a_drop_at_its_first_step_an_off_goal_box_at_the_end():
+    steps = _steps([1.165, 1.165, 0.6, 0.15], [True] * 4)
+    fell = {"success": False, "box_dropped": True, "box_fell_s": steps["t"][2], "box_final": [5.0, 2.0, 0.15]}
+    assert task_failure(fell, steps)["at_s"] == steps["t"][2]
+    off = {"success": False, "box_dropped": False, "clear_of_obstacles": True, "box_upright": True}
+    assert task_failure(off | {"box_goal_error_m": 0.5}, steps)["at_s"] is None

@@ -133,14 +133,16 @@ def failure_category(task: dict) -> str:
 
 
 def task_failure(task: dict, steps: pd.DataFrame) -> dict | None:
-    """{category, reason} of an unsuccessful task (None: it succeeded)."""
+    """{category, reason, at_s} of an unsuccessful task (None: it succeeded); at_s: when it happened (a drop's or a
+    touch's first step), None when it is judged at the run's end."""
     if task.get("success"):
         return None
     first = _first(task)
     if first is None:
         return {"category": "unsuccessful", "reason": "no criterion of success failed that harmony knows of"}
     category, reason, when = first
-    return {"category": category, "reason": reason(task, steps) + _timed_out(task, steps, when(task, steps))}
+    at_s = when(task, steps)
+    return {"category": category, "reason": reason(task, steps) + _timed_out(task, steps, at_s), "at_s": at_s}
 
 
 def _timed_out(task: dict, steps: pd.DataFrame, failed_s: float | None) -> str:

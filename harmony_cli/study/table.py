@@ -18,11 +18,20 @@ TABLE = "study.parquet"
 NOT_RUN = ("interrupted", "killed", "running", "not run")  # statuses that are no result (the run did not end)
 
 
+def _failed_first(summary: dict) -> dict | None:
+    """The task's failure of a run that stopped after it had happened (a drop, a touch, at its time): the cause,
+    where the stop (the planner failing for a second once the box is on the floor) is its consequence."""
+    failure = (summary.get("task") or {}).get("failure") or {}
+    return failure if summary.get("status") == "failed" and failure.get("at_s") is not None else None
+
+
 def outcome(summary: dict) -> str:
     """success | a task failure (dropped, collision, ...) | `run failed: <category>` | interrupted | not run."""
     status = summary.get("status", "not run")
     if status in NOT_RUN:
         return "interrupted" if status != "not run" else status
+    if first := _failed_first(summary):
+        return first["category"]
     if status != "completed":
         return f"run failed: {summary.get('failure', 'error')}"
     task = summary.get("task")
@@ -65,7 +74,7 @@ def run_row(run: PlannedRun, run_dir: Path) -> dict[str, Any]:
         "failure": summary.get("failure"),
         "outcome": result,
         "success": result == "success" if summary.get("status") not in NOT_RUN else None,
-        "reason": _reason(summary),
+        "reason": run_reason(summary),
         "resamples": len(run.sample.rejected),
     }
     row |= {f"grid.{k}": v for k, v in run.point.items()}
@@ -87,10 +96,12 @@ def write_table(rows: list[dict[str, Any]], path: Path) -> pd.DataFrame:
     return table
 
 
-def _reason(summary: dict) -> str | None:
+def run_reason(summary: dict) -> str | None:
     """Why a run did not succeed (the run's fault, or its task's failure), with the written task's warnings when
     there is one (what to change first); None when it succeeded."""
     reason = summary.get("reason") or summary.get("error")
+    if (first := _failed_first(summary)) and reason:
+        reason = f"{first['reason']}; then the run stopped: {reason}"
     reason = reason or ((summary.get("task") or {}).get("failure") or {}).get("reason")
     if reason and (written := task_warning(summary)):
         return f"{reason}; {written}"
