@@ -80,12 +80,12 @@ def test_a_cylinder_beside_the_pick_stance_is_named_for_the_grip_phases():
 
 
 def test_a_failed_run_s_reason_in_a_study_carries_its_task_warning_or_an_older_run_s_stance_warning():
-    from harmony_cli.study.table import _reason
+    from harmony_cli.study.table import run_reason
 
     task = {"failure": {"category": "dropped", "reason": "the box fell"}}
-    assert _reason({"task": task, "task_warning": "stance: x"}) == "the box fell; stance: x"
-    assert _reason({"task": task, "task_warning": None}) == "the box fell"
-    assert _reason({"status": "failed", "reason": "planner failed", "stance_warning": "stance: x"}) == (
+    assert run_reason({"task": task, "task_warning": "stance: x"}) == "the box fell; stance: x"
+    assert run_reason({"task": task, "task_warning": None}) == "the box fell"
+    assert run_reason({"status": "failed", "reason": "planner failed", "stance_warning": "stance: x"}) == (
         "planner failed; stance: x"
     )
-    assert _reason({"task": {"failure": None}, "stance_warning": "stance: x"}) is None
+    assert run_reason({"task": {"failure": None}, "stance_warning": "stance: x"}) is None
