@@ -139,7 +139,11 @@ def task_failure(task: dict, steps: pd.DataFrame) -> dict | None:
         return None
     first = _first(task)
     if first is None:
-        return {"category": "unsuccessful", "reason": "no criterion of success failed that harmony knows of"}
+        return {
+            "category": "unsuccessful",
+            "reason": "no criterion of success failed that harmony knows of",
+            "at_s": None,
+        }
     category, reason, when = first
     at_s = when(task, steps)
     return {"category": category, "reason": reason(task, steps) + _timed_out(task, steps, at_s), "at_s": at_s}
