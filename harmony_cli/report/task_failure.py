@@ -60,22 +60,21 @@ def _dropped_s(task: dict, steps: pd.DataFrame) -> float | None:
     return min((t for t in times if t is not None), default=None)
 
 
-def _closest(task: dict) -> tuple[str, str, float]:
-    """(obstacle, robot or box, clearance [m]) of the smallest clearance of the run."""
-    return min(
+def _touched(task: dict, steps: pd.DataFrame) -> tuple[str, str, float, pd.Series]:
+    """(obstacle, robot or box, clearance [m], the steps it touched) of the smallest clearance of the run."""
+    name, who, value = min(
         ((name, who, v) for name, c in task["min_clearance_m"].items() for who, v in c.items()), key=lambda n: n[2]
     )
+    return name, who, value, steps[f"clearance_{who}_{name}_m"] <= 0
 
 
 def _collision(task: dict, steps: pd.DataFrame) -> str:
-    name, who, value = _closest(task)
-    column = f"clearance_{who}_{name}_m"
-    return f"the {who} touched obstacle {name} at {_when(steps, steps[column] <= 0)} (clearance {value:.3f} m)"
+    name, who, value, touching = _touched(task, steps)
+    return f"the {who} touched obstacle {name} at {_when(steps, touching)} (clearance {value:.3f} m)"
 
 
 def _collision_s(task: dict, steps: pd.DataFrame) -> float | None:
-    name, who, _ = _closest(task)
-    return _first_time(steps, steps[f"clearance_{who}_{name}_m"] <= 0)
+    return _first_time(steps, _touched(task, steps)[3])
 
 
 def _tipped(task: dict, steps: pd.DataFrame) -> str:
