@@ -32,6 +32,7 @@ import numpy as np
 
 from harmony_cli.maths.bezier import bernstein_basis, difference_matrix, shift_matrix
 from harmony_cli.mpc.codegen import Buffered
+from harmony_cli.mpc.distance_code import CompiledDistance
 from harmony_cli.mpc.hand_plan import ROWS, Ends, HandState, Obstacle, Plan, PlannerResult, Solved
 from harmony_cli.mpc.phase_start import first_step, on_route_plan
 from harmony_cli.mpc.plan_base import PlannedBase
@@ -89,13 +90,20 @@ class TaskPlanner:
         n_rows = self.n_keep + len(obstacles) * self.n_points * s.size
         dense = {"h": cs.Sparsity.dense(self.n_free, self.n_free), "a": cs.Sparsity.dense(n_rows, self.n_free)}
         self.qp = Buffered(cs.conic("planner", spec.qp, dense, {"error_on_fail": False}))
+        self._distances = [CompiledDistance(o.shape, self.n_points * s.size) for o in obstacles]  # hands, object
+        self._points = np.zeros((self.n_points * s.size, 3))  # their points, per obstacle
         self._bind_buffers()
         self.C: np.ndarray | None = None  # the last good plan's control points, over [t_plan, t_plan + T_plan]
         self.phase: int | None = None
         self.t_plan, self.T_plan = 0.0, 1.0
         self.via: np.ndarray | None = None  # (2,) a point a phase's first plan routes through (a chosen stance)
         self._route_next = False  # whether the next step tries a route (the phase's first plan wants one)
-        self.path = f"Gauss-Newton SQP on the control points, {spec.qp} QP, numpy derivatives"
+
+    @property
+    def path(self) -> str:
+        """How it solves (meta.json, before the loop): loads the compiled distances (gcc on a cold cache) there."""
+        code = sorted({c.code_path() for c in self._distances}) or ["none"]
+        return f"Gauss-Newton SQP on the control points, {self.spec.qp} QP, numpy derivatives, distances: {code[0]}"
 
     @property
     def route_pending(self) -> bool:
@@ -258,14 +266,18 @@ class TaskPlanner:
     def _clearance_rows(self, curves: np.ndarray, t: float, T: float, carried: tuple[float, float] | None) -> float:
         """The QP's linearised clearance rows and lower bounds, per obstacle S each for hand 0, hand 1 and the object
         (inactive while not carrying); returns the smallest predicted clearance margin."""
-        n, lba, margins = self.s.size, self.qp.args["lba"], [np.inf]
+        n, lba, margins, points = self.s.size, self.qp.args["lba"], [np.inf], self._points
         hands = curves[0:6].reshape(2, 3, n).transpose(0, 2, 1)  # (hand, sample, xyz)
         object_point = 0.5 * (curves[0:3] + curves[3:6]).T - [0.0, 0.0, carried[1] if carried else 0.0]
-        for i, obstacle in enumerate(self.obstacles):
+        for i, (obstacle, shape) in enumerate(zip(self.obstacles, self._distances)):
             # a moving obstacle at each sample time: the points relative to it, as if it stood at shape.centre
             moved = 0.0 if obstacle.motion is None else obstacle.motion(t + T * self.s) - obstacle.shape.centre
             first = self.n_keep + i * self.n_points * n
-            dist, grad = obstacle.shape.distance((hands - moved).reshape(-1, 3))
+            points[: 2 * n] = (hands - moved).reshape(-1, 3)
+            points[2 * n :] = object_point - moved  # against the shape grown by the object's half diagonal
+            shape.grow[2 * n :] = carried[0] if carried else 0.0
+            every, gradients = shape.distance(points)
+            dist, grad = every[: 2 * n], gradients[: 2 * n]
             rows = self._qp_rows[:, :, first : first + 2 * n]
             rows[0:3], rows[3:6] = (self._hand_weights[:, None] * grad.T)[:, :, None] * self._B_hands
             need = obstacle.clearance - self._reliefs[i]  # lowered where the goal itself is within it
@@ -275,7 +287,7 @@ class TaskPlanner:
             if carried is None:
                 rows[:], bounds[:] = 0.0, -np.inf
                 continue
-            dist, grad = obstacle.shape.grown(carried[0]).distance(object_point - moved)
+            dist, grad = every[2 * n :], gradients[2 * n :]
             rows[0:3] = rows[3:6] = (0.5 * grad.T)[:, None] * self.B_free
             bounds[:] = need - dist
             margins.append(float((dist - need).min()))

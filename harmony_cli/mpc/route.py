@@ -53,11 +53,14 @@ def plan_route(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray]) 
     first, last = _way_out(start, outlines), _way_out(goal, outlines)
     held = [o for o in outlines if _inside(o, first) or _inside(o, last)]  # still inside after the way out
     blocking = [o for o in outlines if not any(o is h for h in held)]
-    nodes = np.array([first, last] + [_pushed_out(o)[i] for o in blocking for i in range(len(o))])
+    nodes = np.vstack([first, last, *(_pushed_out(o) for o in blocking)])
     i, j = np.triu_indices(len(nodes), k=1)
-    visible = np.ones(len(i), dtype=bool)
-    for outline in blocking:
-        visible &= ~_crosses(outline, nodes[i], nodes[j])
+    visible, low, high = np.ones(len(i), dtype=bool), np.minimum(nodes[i], nodes[j]), np.maximum(nodes[i], nodes[j])
+    for outline in blocking:  # only the segments whose bounding box overlaps the outline's can enter it
+        near = np.flatnonzero(
+            visible & np.all(high > outline.min(axis=0), axis=1) & np.all(low < outline.max(axis=0), axis=1)
+        )
+        visible[near] = ~_crosses(outline, nodes[i[near]], nodes[j[near]])
     weights = np.zeros((len(nodes), len(nodes)))
     weights[i[visible], j[visible]] = np.maximum(np.linalg.norm(nodes[i[visible]] - nodes[j[visible]], axis=1), 1e-12)
     distances, previous = dijkstra(weights, directed=False, indices=0, return_predecessors=True)
@@ -76,7 +79,7 @@ def _way_out(point: np.ndarray, outlines: list[np.ndarray]) -> np.ndarray:
     """`point`, or, inside an outline, the nearest point just outside it (one outline: the first holding it)."""
     for outline in outlines:
         if _inside(outline, point):
-            edges = np.roll(outline, -1, axis=0) - outline
+            edges = np.diff(outline, axis=0, append=outline[:1])
             along = np.clip(np.sum((point - outline) * edges, axis=1) / np.sum(edges * edges, axis=1), 0.0, 1.0)
             feet = outline + along[:, None] * edges
             foot = feet[np.argmin(np.linalg.norm(feet - point, axis=1))]
@@ -117,7 +120,7 @@ def _pushed_out(outline: np.ndarray) -> np.ndarray:
 
 
 def _inside(outline: np.ndarray, point: np.ndarray) -> bool:
-    edges = np.roll(outline, -1, axis=0) - outline
+    edges = np.diff(outline, axis=0, append=outline[:1])
     rel = point - outline
     return bool(np.all(edges[:, 0] * rel[:, 1] - edges[:, 1] * rel[:, 0] > 0))
 
@@ -126,7 +129,7 @@ def _crosses(outline: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Whether each segment a[n]-b[n] ((n, 2) each) enters the interior of the convex outline (separating axes:
     its edges' normals and the segment's; touching an edge or a corner is not entering)."""
     tol = 1e-9
-    edges = np.roll(outline, -1, axis=0) - outline
+    edges = np.diff(outline, axis=0, append=outline[:1])
     normals = np.column_stack([edges[:, 1], -edges[:, 0]])
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     polygon = outline @ normals.T  # (vertices, edges)
