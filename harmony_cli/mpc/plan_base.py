@@ -103,11 +103,12 @@ class PlannedBase:
         gaps = np.hypot(mx + (c * ox - s * oy) - centres[..., 0], my + (s * ox + c * oy) - centres[..., 1])
         return gaps.min(axis=1) - self._reserve
 
-    def rows(self, curves, times, weight: float, basis: np.ndarray):
+    def rows(self, curves, times, weight: float, basis: np.ndarray, margins=None):
         """The planner's soft rows at the plan's `curves` (7, 1 + S): its fixed start (s = 0), then its S samples (the
         last is its fixed goal) at absolute `times` (1 + S,): the active ones only (a margin short of 0), residuals
         r (m,) = weight * (margin + relief) and their Jacobian J (m, 7 * free columns) over the free control points
         (`basis`: (free columns, S)); and the smallest margin (relieved; a bound above 0 when nothing is near).
+        `margins`: what evaluates `self.margins` (footprint_code.py's compiled C), by default this numpy code.
         A body's relief is how far the footprint at either fixed end is inside its clearance: a path cannot do
         better than its ends, and asking it to would bend the hands' path where the whole-body MPC stands the base
         elsewhere anyway."""
@@ -116,7 +117,7 @@ class PlannedBase:
         near = bound <= 0.0
         if not near.any():
             return np.zeros(0), np.zeros((0, 7 * basis.shape[0])), float(bound.min())
-        margins, d_mid, d_psi = self.margins(np.column_stack([mx, my]), curves[6], times, near)
+        margins, d_mid, d_psi = (margins or self.margins)(np.column_stack([mx, my]), curves[6], times, near)
         reliefs = np.maximum(-np.minimum(margins[:, 0], margins[:, -1]), 0.0)
         margins, d_mid, d_psi = margins[:, 1:] + reliefs[:, None], d_mid[:, 1:], d_psi[:, 1:]
         body, sample = np.nonzero(margins < 0.0)

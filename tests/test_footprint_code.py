@@ -1,0 +1,40 @@
+"""The planned base's footprint margins, their nearest circles found in compiled C, against plan_base's numpy code."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from harmony_cli.maths.shapes import Shape
+from harmony_cli.mpc.footprint_code import CompiledMargins
+from harmony_cli.mpc.hand_plan import Obstacle
+from harmony_cli.mpc.plan_base import PlannedBase
+
+CIRCLES = np.array([[0.3, 0.2, 0.25], [-0.3, 0.2, 0.25], [0.3, -0.2, 0.25], [-0.3, -0.2, 0.25], [0.0, 0.0, 0.3]])
+HANDS = np.array([[0.76, 0.15, 0.93], [0.76, -0.15, 0.93]])
+
+
+def _bodies() -> list[Obstacle]:
+    """A turned box, a cylinder, a box that moves, a sphere (round in plan view)."""
+    moving = Shape("box", np.array([1.0, 1.0, 0.5]), 0.0, np.array([0.2, 0.4, 0.5]))
+    return [
+        Obstacle(Shape("box", np.array([0.5, -1.0, 0.5]), 0.4, np.array([0.3, 0.2, 0.5])), 0.03),
+        Obstacle(Shape("cylinder", np.array([1.5, 0.3, 1.0]), 0.0, np.array([0.3, 0.3, 1.0])), 0.2),
+        Obstacle(moving, 0.05, lambda t: moving.centre + np.outer(t, [0.3, -0.2, 0.0])),
+        Obstacle(Shape("sphere", np.array([-1.0, 0.5, 1.0]), 0.0, np.array([0.2, 0.2, 0.2])), 0.1),
+    ]
+
+
+def test_compiled_footprint_margins_and_gradients_equal_the_numpy_ones_to_the_bit_near_and_far_from_bodies():
+    base = PlannedBase.at_home(CIRCLES, np.array([0.0, 0.0, 0.2]), HANDS, _bodies())
+    samples, rng = 21, np.random.default_rng(3)
+    compiled = CompiledMargins(base, samples)
+    inside = 0
+    for _ in range(20):
+        midpoints, headings = rng.uniform(-1.5, 2.0, (samples, 2)), rng.uniform(-np.pi, np.pi, samples)
+        times = np.sort(rng.uniform(0.0, 3.0, samples))
+        near = rng.random(len(base.bodies)) < 0.7
+        expected, got = base.margins(midpoints, headings, times, near), compiled(midpoints, headings, times, near)
+        for e, g in zip(expected, got):
+            np.testing.assert_array_equal(g, e)
+        inside += int((expected[0] < 0).sum())
+    assert inside > 20  # footprints within a clearance (active rows) were compared, not only clear ones
