@@ -13,21 +13,15 @@ from harmony_cli.mpc.plan_base import PlannedBase, _plan_distance
 
 
 def _distance(dx, dy, body, round_: bool):
-    """plan_base._plan_distance for one point relative to a body's centre: signed distance and its gradient; `body`:
-    the symbols cos and sin of its yaw, half sizes (2)."""
+    """plan_base._plan_distance's signed distance of one point relative to a body's centre; `body`: the symbols cos
+    and sin of its yaw, half sizes (2)."""
     c, s, half = body[0], body[1], body[2:4]
     if round_:
-        radial = cs.fmax(cs.hypot(dx, dy), 1e-12)
-        return radial - half[0], dx / radial, dy / radial
+        return cs.fmax(cs.hypot(dx, dy), 1e-12) - half[0]
     lx, ly = c * dx + s * dy, -s * dx + c * dy
     ex, ey = cs.fabs(lx) - half[0], cs.fabs(ly) - half[1]
-    ox, oy = cs.fmax(ex, 0.0), cs.fmax(ey, 0.0)
-    outside = cs.hypot(ox, oy)
-    inside = outside == 0.0
-    scale = cs.if_else(inside, 0.0, 1.0 / cs.fmax(outside, 1e-12))
-    gx = cs.sign(lx) * cs.if_else(inside, ex >= ey, ox * scale)
-    gy = cs.sign(ly) * cs.if_else(inside, ex < ey, oy * scale)
-    return cs.if_else(inside, cs.fmax(ex, ey), outside), c * gx - s * gy, s * gx + c * gy
+    outside = cs.hypot(cs.fmax(ex, 0.0), cs.fmax(ey, 0.0))
+    return cs.if_else(outside == 0.0, cs.fmax(ex, ey), outside)
 
 
 def margin_function(base: PlannedBase, round_: bool) -> cs.Function:
@@ -41,7 +35,7 @@ def margin_function(base: PlannedBase, round_: bool) -> cs.Function:
     best, index = None, None
     for k, ((ox, oy), radius) in enumerate(zip(base.offsets, base.circles[:, 2])):
         wx, wy = c * ox - s * oy, s * ox + c * oy
-        margin = _distance(mid[0] + wx - centre[0], mid[1] + wy - centre[1], body, round_)[0] - radius
+        margin = _distance(mid[0] + wx - centre[0], mid[1] + wy - centre[1], body, round_) - radius
         if best is None:
             best, index = margin, cs.SX(0.0)
         else:
