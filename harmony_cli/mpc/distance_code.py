@@ -60,7 +60,6 @@ class CompiledDistance:
     construction; `distance` returns views of its buffers, valid until the next call."""
 
     def __init__(self, shape: Shape, points: int):
-        self.points = points
         self.shape = shape
         self._code = Compiling(distance_function(shape.kind).map(points))
         self._f: Buffered | None = None

@@ -1,7 +1,7 @@
-"""The planned base's footprint margins (plan_base.py) with the search for the nearest circle in compiled C: numpy
+"""The search for the planned base's nearest footprint circle (PlannedBase.margins' `nearest`) in compiled C: numpy
 spends ~0.2 ms a planner step on (circles x samples) arrays per body near the footprint (a narrow passage: every
-step). C finds each sample's nearest circle and its margin; numpy then takes the gradient of that circle alone with
-plan_base's own code, so margins and gradients equal `PlannedBase.margins`' to the bit (a test)."""
+step). C finds each sample's nearest circle and its margin; plan_base takes that circle's gradient, so margins and
+gradients equal the numpy search's to the bit (a test)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import casadi as cs
 import numpy as np
 
 from harmony_cli.mpc.codegen import Buffered, Compiling, code_path
-from harmony_cli.mpc.plan_base import PlannedBase, _plan_distance
+from harmony_cli.mpc.plan_base import PlannedBase
 
 
 def _distance(dx, dy, body, round_: bool):
@@ -52,7 +52,7 @@ OUTPUTS = ["margin", "nearest"]
 
 
 class CompiledMargins:
-    """`PlannedBase.margins` for `samples` points at once, compiled (in the background from construction): a buffer
+    """PlannedBase.margins' `nearest` for `samples` points, compiled (in the background from construction): a buffer
     per body, holding its shape, so only the bodies near the footprint are evaluated."""
 
     def __init__(self, base: PlannedBase, samples: int):
@@ -78,24 +78,12 @@ class CompiledMargins:
             self.load(k)
         return code_path(next(iter(self._code.values())).function) if self._code else "compiled C"
 
-    def __call__(self, midpoints: np.ndarray, headings: np.ndarray, times: np.ndarray, near=None):
-        base, n = self.base, self.samples
-        picked = np.flatnonzero(np.ones(len(base.bodies), dtype=bool) if near is None else near)
-        centres = base._centres_at(times)  # (bodies, S or 1, 2)
-        yaw = base.yaw_home + headings
-        c, s = np.cos(yaw), np.sin(yaw)
-        margins, d_psi, grads = np.empty((len(picked), n)), np.empty((len(picked), n)), np.empty((len(picked), n, 2))
-        for i, k in enumerate(picked.tolist()):
-            f = self.load(k)
-            # the buffers are column-major: (2, S) is (S, 2) in C order
-            f.args["mid"].reshape(-1, 2)[:], f.args["centre"].reshape(-1, 2)[:] = midpoints, centres[k]
-            f.args["turn"].reshape(-1, 2)[:, 0], f.args["turn"].reshape(-1, 2)[:, 1] = c, s
-            f._eval()
-            margins[i], nearest = f.res["margin"], f.res["nearest"].astype(int)
-            ox, oy = base.offsets[nearest, 0], base.offsets[nearest, 1]  # the nearest circles' (S,): as margins does
-            wx, wy = c * ox - s * oy, s * ox + c * oy
-            px, py = (midpoints[:, 0] + wx)[None], (midpoints[:, 1] + wy)[None]
-            _, gx, gy = _plan_distance(px, py, centres[k], base._yaws[k], base._halves[k], base._round[k])
-            grads[i, :, 0], grads[i, :, 1] = gx[0], gy[0]
-            d_psi[i] = gy[0] * wx - gx[0] * wy
-        return margins, grads, d_psi
+    def __call__(self, k: int, c: np.ndarray, s: np.ndarray, midpoints: np.ndarray, centres: np.ndarray):
+        """Body k's margin (S,) and nearest circle (S,) with the base yaw's cos and sin `c`, `s` (S,), the hands'
+        `midpoints` (S, 2) and the body's centres (S or 1, 2)."""
+        f = self.load(k)
+        turn = f.args["turn"].reshape(-1, 2)  # the buffers are column-major: (2, S) is (S, 2) in C order
+        f.args["mid"].reshape(-1, 2)[:], f.args["centre"].reshape(-1, 2)[:] = midpoints, centres
+        turn[:, 0], turn[:, 1] = c, s
+        f._eval()
+        return f.res["margin"].copy(), f.res["nearest"].astype(int)

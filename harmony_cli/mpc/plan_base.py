@@ -59,11 +59,12 @@ class PlannedBase:
         # what the screen takes off a body's distance: the footprint's bounding circle, the body's radius, clearance
         object.__setattr__(self, "_reserve", spread.max(initial=0.0) + self._radii + self._clearances)
 
-    def margins(self, midpoints: np.ndarray, headings: np.ndarray, times: np.ndarray, near=None):
+    def margins(self, midpoints: np.ndarray, headings: np.ndarray, times: np.ndarray, near=None, nearest=None):
         """Per body (those `near`, a mask; all by default) and sample, the smallest margin (>= 0: clear) of any circle
         of the footprint placed at the hands' `midpoints` (S, 2) and `headings` (S,) at absolute `times` (S,); with
-        its gradient with respect to the midpoint (bodies, S, 2) and the heading (bodies, S). A loop over the bodies
-        (a few are near): (circles, S) arrays each, cheaper than one (bodies, circles, S, 2) broadcast."""
+        its gradient with respect to the midpoint (bodies, S, 2) and the heading (bodies, S). `nearest(k, c, s,
+        midpoints, centres)`: body k's margin and nearest circle per sample (footprint_code.py's compiled C, `c`, `s`:
+        the base yaw's cos and sin); by default every circle here, (circles, S) arrays a body (a few are near)."""
         picked = np.flatnonzero(np.ones(len(self.bodies), dtype=bool) if near is None else near)
         yaw = self.yaw_home + headings
         c, s = np.cos(yaw), np.sin(yaw)
@@ -74,13 +75,18 @@ class PlannedBase:
         columns = np.arange(len(times))
         margins, d_psi = np.empty((len(picked), len(times))), np.empty((len(picked), len(times)))
         grads = np.empty((len(picked), len(times), 2))
-        for i, k in enumerate(picked):
-            dist, gx, gy = _plan_distance(px, py, centres[k], self._yaws[k], self._halves[k], self._round[k])
-            margin = dist - self.circles[:, 2:3]
-            nearest = np.argmin(margin, axis=0)  # (S,): the circle that matters at each sample
-            margins[i] = margin[nearest, columns] - self._clearances[k]
-            grads[i, :, 0], grads[i, :, 1] = gx[nearest, columns], gy[nearest, columns]
-            d_psi[i] = grads[i, :, 1] * wx[nearest, columns] - grads[i, :, 0] * wy[nearest, columns]
+        for i, k in enumerate(picked.tolist()):
+            body = centres[k], self._yaws[k], self._halves[k], self._round[k]
+            if nearest is None:
+                margin = _plan_distance(px, py, *body)[0] - self.circles[:, 2:3]
+                index = np.argmin(margin, axis=0)  # (S,): the circle that matters at each sample
+                margins[i] = margin[index, columns] - self._clearances[k]
+            else:
+                margins[i], index = nearest(k, c, s, midpoints, centres[k])
+            at = index, columns
+            _, gx, gy = _plan_distance(px[at][None], py[at][None], *body)  # that circle's gradient
+            grads[i, :, 0], grads[i, :, 1] = gx[0], gy[0]
+            d_psi[i] = gy[0] * wx[at] - gx[0] * wy[at]
         return margins, grads, d_psi
 
     def _centres_at(self, times: np.ndarray) -> np.ndarray:
@@ -103,12 +109,12 @@ class PlannedBase:
         gaps = np.hypot(mx + (c * ox - s * oy) - centres[..., 0], my + (s * ox + c * oy) - centres[..., 1])
         return gaps.min(axis=1) - self._reserve
 
-    def rows(self, curves, times, weight: float, basis: np.ndarray, margins=None):
+    def rows(self, curves, times, weight: float, basis: np.ndarray, nearest=None):
         """The planner's soft rows at the plan's `curves` (7, 1 + S): its fixed start (s = 0), then its S samples (the
         last is its fixed goal) at absolute `times` (1 + S,): the active ones only (a margin short of 0), residuals
         r (m,) = weight * (margin + relief) and their Jacobian J (m, 7 * free columns) over the free control points
         (`basis`: (free columns, S)); and the smallest margin (relieved; a bound above 0 when nothing is near).
-        `margins`: what evaluates `self.margins` (footprint_code.py's compiled C), by default this numpy code.
+        `nearest`: see `margins` (footprint_code.py's compiled C; by default numpy).
         A body's relief is how far the footprint at either fixed end is inside its clearance: a path cannot do
         better than its ends, and asking it to would bend the hands' path where the whole-body MPC stands the base
         elsewhere anyway."""
@@ -117,7 +123,7 @@ class PlannedBase:
         near = bound <= 0.0
         if not near.any():
             return np.zeros(0), np.zeros((0, 7 * basis.shape[0])), float(bound.min())
-        margins, d_mid, d_psi = (margins or self.margins)(np.column_stack([mx, my]), curves[6], times, near)
+        margins, d_mid, d_psi = self.margins(np.column_stack([mx, my]), curves[6], times, near, nearest)
         reliefs = np.maximum(-np.minimum(margins[:, 0], margins[:, -1]), 0.0)
         margins, d_mid, d_psi = margins[:, 1:] + reliefs[:, None], d_mid[:, 1:], d_psi[:, 1:]
         body, sample = np.nonzero(margins < 0.0)

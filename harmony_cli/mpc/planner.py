@@ -92,7 +92,7 @@ class TaskPlanner:
         dense = {"h": cs.Sparsity.dense(self.n_free, self.n_free), "a": cs.Sparsity.dense(n_rows, self.n_free)}
         self.qp = Buffered(cs.conic("planner", spec.qp, dense, {"error_on_fail": False}))
         self._distances = [CompiledDistance(o.shape, self.n_points * s.size) for o in obstacles]  # hands, object
-        self._base_margins = None if base is None else CompiledMargins(base, self._s_start.size)
+        self._base_nearest = None if base is None else CompiledMargins(base, self._s_start.size)
         self._points = np.zeros((self.n_points * s.size, 3))  # their points, per obstacle
         self._bind_buffers()
         self.C: np.ndarray | None = None  # the last good plan's control points, over [t_plan, t_plan + T_plan]
@@ -104,7 +104,7 @@ class TaskPlanner:
     @property
     def path(self) -> str:
         """How it solves (meta.json, before the loop): loads the compiled distances (gcc on a cold cache) there."""
-        code = sorted({c.code_path() for c in [*self._distances, self._base_margins] if c is not None}) or ["none"]
+        code = sorted({c.code_path() for c in [*self._distances, self._base_nearest] if c is not None}) or ["none"]
         return f"Gauss-Newton SQP on the control points, {self.spec.qp} QP, numpy derivatives, distances: {code[0]}"
 
     @property
@@ -228,7 +228,7 @@ class TaskPlanner:
         if self.base is not None:  # its active rows only (usually none): the same sums as zero rows in J, less work
             with_start = C @ self._B_start.T  # its fixed start (s = 0), then the samples
             r, J, base_clearance = self.base.rows(
-                with_start, t + T * self._s_start, self.spec.weights.base, self.B_free, self._base_margins
+                with_start, t + T * self._s_start, self.spec.weights.base, self.B_free, self._base_nearest
             )
             if len(r):
                 self._H += J.T @ J
