@@ -70,3 +70,27 @@ def test_an_outline_holding_the_start_is_left_by_the_nearest_way_out_and_never_e
 
 def _clearance_of(points: np.ndarray, shape: Shape) -> float:
     return float(shape.distance(np.column_stack([points, np.full(len(points), shape.centre[2])]))[0].min())
+
+
+def test_an_outline_asked_for_again_is_the_one_computed_first_and_cannot_be_changed():
+    box = Shape("box", np.array([1.0, 2.0, 0.5]), 0.3, np.array([0.4, 0.2, 0.5]))
+    first = footprint(box, 0.25)
+    again = footprint(Shape("box", np.array([1.0, 2.0, 0.5]), 0.3, np.array([0.4, 0.2, 0.5])), 0.25)
+    assert again is first and not first.flags.writeable
+    assert footprint(box, 0.26) is not first  # another radius is another outline
+
+
+def test_a_route_after_its_outlines_were_warmed_computes_none_of_its_own():
+    from harmony_cli.mpc import route
+    from harmony_cli.mpc.hand_plan import Obstacle
+    from harmony_cli.mpc.plan_seed import Ground, route_around, warm_outlines
+
+    crate = Obstacle(Shape("box", np.array([2.0, 0.1, 0.6]), 0.2, np.array([0.3, 0.4, 0.6])), 0.35)
+    table = Shape("box", np.array([4.0, 0.0, 0.5]), 0.0, np.array([0.4, 0.75, 0.5]))
+    ground = Ground([(table, 0.03)], base_radius=0.38)
+    warm_outlines([crate], ground)
+    computed = route._outline.cache_info().misses
+    hands = lambda x: np.array([[x, 0.15, 1.2], [x, -0.15, 1.2]])
+    found = route_around([crate], hands(0.5), hands(3.2), (0.2, 0.15), ground)
+    assert found is not None and len(found.points) > 2  # it went round the crate
+    assert route._outline.cache_info().misses == computed

@@ -38,7 +38,7 @@ from harmony_cli.mpc.hand_plan import ROWS, Ends, HandState, Obstacle, Plan, Pla
 from harmony_cli.mpc.phase_start import first_step, on_route_plan
 from harmony_cli.mpc.plan_base import PlannedBase
 from harmony_cli.mpc.plan_checks import goal_reliefs, is_clean
-from harmony_cli.mpc.plan_seed import Ground, straight_to
+from harmony_cli.mpc.plan_seed import Ground, straight_to, warm_outlines
 from harmony_cli.mpc.problem import NoPlanToHold
 
 if TYPE_CHECKING:
@@ -100,6 +100,7 @@ class TaskPlanner:
         self.t_plan, self.T_plan = 0.0, 1.0
         self.via: np.ndarray | None = None  # (2,) a point a phase's first plan routes through (a chosen stance)
         self._route_next = False  # whether the next step tries a route (the phase's first plan wants one)
+        warm_outlines(obstacles, ground)  # before the loop, as the compiled code is loaded
 
     @property
     def path(self) -> str:

@@ -13,8 +13,10 @@ path itself: the SQP refines the route with the true clearances, speed bounds an
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
+from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from harmony_cli.maths.shapes import Shape
@@ -38,11 +40,22 @@ class Route:
 
 
 def footprint(shape: Shape, radius: float) -> np.ndarray:
-    """The plan-view outline (k, 2) of `shape` grown by `radius`, counter-clockwise, containing the true one."""
+    """The plan-view outline (k, 2) of `shape` grown by `radius`, counter-clockwise, containing the true one;
+    read-only (a route of a run asks for the same few outlines at every re-plan: each is computed once)."""
+    key = (shape.kind, tuple(shape.centre.tolist()), float(shape.yaw), tuple(shape.half.tolist()), float(radius))
+    return _outline(*key)
+
+
+@lru_cache(maxsize=256)
+def _outline(kind: str, centre: tuple, yaw: float, half: tuple, radius: float) -> np.ndarray:
     circumscribed = _unit_ring() / np.cos(np.pi / SIDES)
-    if shape.kind in ("cylinder", "sphere"):
-        return shape.centre[:2] + (shape.half[0] + radius) * circumscribed
-    return _convex_hull((shape.corners()[:, None, :] + radius * circumscribed[None]).reshape(-1, 2))
+    shape = Shape(kind, np.array(centre), yaw, np.array(half))
+    if kind in ("cylinder", "sphere"):
+        outline = shape.centre[:2] + (shape.half[0] + radius) * circumscribed
+    else:
+        outline = _convex_hull((shape.corners()[:, None, :] + radius * circumscribed[None]).reshape(-1, 2))
+    outline.flags.writeable = False
+    return outline
 
 
 def plan_route(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray]) -> Route | None:
@@ -61,8 +74,8 @@ def plan_route(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray]) 
             visible & np.all(high > outline.min(axis=0), axis=1) & np.all(low < outline.max(axis=0), axis=1)
         )
         visible[near] = ~_crosses(outline, nodes[i[near]], nodes[j[near]])
-    weights = np.zeros((len(nodes), len(nodes)))
-    weights[i[visible], j[visible]] = np.maximum(np.linalg.norm(nodes[i[visible]] - nodes[j[visible]], axis=1), 1e-12)
+    lengths = np.maximum(np.linalg.norm(nodes[i[visible]] - nodes[j[visible]], axis=1), 1e-12)
+    weights = csr_matrix((lengths, (i[visible], j[visible])), shape=(len(nodes), len(nodes)))  # as dense ones become
     distances, previous = dijkstra(weights, directed=False, indices=0, return_predecessors=True)
     if not np.isfinite(distances[1]):
         return None
