@@ -85,5 +85,5 @@ class CompiledDistance:
         """(points, 3) -> signed distances (points,) and gradients (points, 3)."""
         f = self.load()
         self._points[:], self._grow[:] = points, self.grow
-        f._eval()
+        f()  # the buffers set above in place: no inputs to copy
         return self._dist, self._grad

@@ -42,13 +42,10 @@ def margin_function(base: PlannedBase, round_: bool) -> cs.Function:
             take = margin < best
             best, index = cs.if_else(take, margin, best), cs.if_else(take, float(k), index)
     assert best is not None
-    names = (["mid", "turn", "centre", "body"], OUTPUTS)
+    names = (["mid", "turn", "centre", "body"], ["margin", "nearest"])
     return cs.Function(
         f"harmony_footprint_{'round' if round_ else 'box'}", [mid, turn, centre, body], [best - body[4], index], *names
     )
-
-
-OUTPUTS = ["margin", "nearest"]
 
 
 class CompiledMargins:
@@ -73,10 +70,10 @@ class CompiledMargins:
         return f
 
     def code_path(self) -> str:
-        """ "compiled C", or "CasADi VM" without gcc (codegen.py); loads every body's code."""
+        """ "compiled C", or "CasADi VM" without gcc (codegen.py), "none" without bodies; loads every body's code."""
         for k in range(len(self._f)):
             self.load(k)
-        return code_path(next(iter(self._code.values())).function) if self._code else "compiled C"
+        return code_path(next(iter(self._code.values())).function) if self._code else "none"
 
     def __call__(self, k: int, c: np.ndarray, s: np.ndarray, midpoints: np.ndarray, centres: np.ndarray):
         """Body k's margin (S,) and nearest circle (S,) with the base yaw's cos and sin `c`, `s` (S,), the hands'
@@ -85,5 +82,5 @@ class CompiledMargins:
         turn = f.args["turn"].reshape(-1, 2)  # the buffers are column-major: (2, S) is (S, 2) in C order
         f.args["mid"].reshape(-1, 2)[:], f.args["centre"].reshape(-1, 2)[:] = midpoints, centres
         turn[:, 0], turn[:, 1] = c, s
-        f._eval()
+        f()  # the buffers set above in place: no inputs to copy
         return f.res["margin"].copy(), f.res["nearest"].astype(int)

@@ -75,7 +75,8 @@ def plan_route(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray]) 
         )
         visible[near] = ~_crosses(outline, nodes[i[near]], nodes[j[near]])
     lengths = np.maximum(np.linalg.norm(nodes[i[visible]] - nodes[j[visible]], axis=1), 1e-12)
-    weights = csr_matrix((lengths, (i[visible], j[visible])), shape=(len(nodes), len(nodes)))  # as dense ones become
+    # sparse, as dijkstra stores a dense matrix anyway: the same graph without building the n x n array
+    weights = csr_matrix((lengths, (i[visible], j[visible])), shape=(len(nodes), len(nodes)))
     distances, previous = dijkstra(weights, directed=False, indices=0, return_predecessors=True)
     if not np.isfinite(distances[1]):
         return None
