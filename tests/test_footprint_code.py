@@ -39,3 +39,20 @@ def test_compiled_footprint_margins_and_gradients_equal_the_numpy_ones_to_the_bi
             np.testing.assert_array_equal(g, e)
         inside += int((expected[0] < 0).sum())
     assert inside > 20  # footprints within a clearance (active rows) were compared, not only clear ones
+
+
+def test_compiled_footprint_rows_and_smallest_margin_equal_numpys_to_the_bit():
+    base = PlannedBase.at_home(CIRCLES, np.array([0.0, 0.0, 0.2]), HANDS, _bodies())
+    samples, rng = 21, np.random.default_rng(5)
+    compiled, basis = CompiledMargins(base, samples + 1), rng.uniform(0.0, 1.0, (6, samples))
+    active = 0
+    for _ in range(20):
+        curves = rng.uniform(-1.5, 2.0, (7, samples + 1))
+        times = np.sort(rng.uniform(0.0, 3.0, samples + 1))
+        r, J, smallest = base.rows(curves, times, 2.0, basis)
+        r_c, J_c, smallest_c = base.rows(curves, times, 2.0, basis, nearest=compiled)
+        np.testing.assert_array_equal(r_c, r)
+        np.testing.assert_array_equal(J_c, J)
+        assert smallest_c == smallest
+        active += len(r)
+    assert active > 20  # footprints within a clearance (active rows) were compared, not only clear ones

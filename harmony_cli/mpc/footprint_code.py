@@ -1,7 +1,7 @@
 """The search for the planned base's nearest footprint circle (PlannedBase.margins' `nearest`) in compiled C: numpy
 spends ~0.2 ms a planner step on (circles x samples) arrays per body near the footprint (a narrow passage: every
-step). C finds each sample's nearest circle and its margin; plan_base takes that circle's gradient, so margins and
-gradients equal the numpy search's to the bit (a test)."""
+step). C finds each sample's nearest circle, its margin and that circle's gradient in the same operations as
+plan_base's numpy, so margins and gradients equal the numpy search's to the bit (a test)."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from harmony_cli.mpc.plan_base import PlannedBase
 
 
 def _distance(dx, dy, body, round_: bool):
-    """plan_base._plan_distance's signed distance of one point relative to a body's centre; `body`: the symbols cos
-    and sin of its yaw, half sizes (2)."""
+    """plan_base._plan_distance's signed distance, operation for operation, of one point relative to a body's
+    centre; `body`: the symbols cos and sin of its yaw, half sizes (2)."""
     c, s, half = body[0], body[1], body[2:4]
     if round_:
         return cs.fmax(cs.hypot(dx, dy), 1e-12) - half[0]
@@ -24,63 +24,90 @@ def _distance(dx, dy, body, round_: bool):
     return cs.if_else(outside == 0.0, cs.fmax(ex, ey), outside)
 
 
+def _gradient(dx, dy, body, round_: bool):
+    """plan_base._plan_distance's gradient (gx, gy), operation for operation."""
+    c, s, half = body[0], body[1], body[2:4]
+    if round_:
+        radial = cs.fmax(cs.hypot(dx, dy), 1e-12)
+        return dx / radial, dy / radial
+    lx, ly = c * dx + s * dy, -s * dx + c * dy
+    ex, ey = cs.fabs(lx) - half[0], cs.fabs(ly) - half[1]
+    ox, oy = cs.fmax(ex, 0.0), cs.fmax(ey, 0.0)
+    inside = cs.hypot(ox, oy) == 0.0
+    # fmax(1 / x, 0) = 1 / x, but keeps ox * scale a product: CasADi folds x * (1 / y) into x / y, rounded apart
+    scale = cs.if_else(inside, 0.0, cs.fmax(1.0 / cs.fmax(cs.hypot(ox, oy), 1e-12), 0.0))
+    gx = cs.sign(lx) * cs.if_else(inside, ex >= ey, ox * scale)
+    gy = cs.sign(ly) * cs.if_else(inside, ex < ey, oy * scale)
+    return c * gx - s * gy, s * gx + c * gy
+
+
 def margin_function(base: PlannedBase, round_: bool) -> cs.Function:
     """One sample: hands' midpoint (2), cos and sin of the base's yaw (from numpy), a body's centre (2) and shape (cos
     and sin of its yaw, half sizes (2), clearance), round or a box -> the margin to it of the footprint's circle
-    nearest it and that circle's index (the first of equals, as argmin). The body is an input: one compiled function
-    per robot and kind serves every scene."""
+    nearest it (the first of equals, as argmin), that margin's gradient with respect to the midpoint (2) and the
+    base's heading (at that circle only, as plan_base). The body is an input: one compiled function per robot and
+    kind serves every scene."""
     mid, turn, centre = cs.SX.sym("mid", 2), cs.SX.sym("turn", 2), cs.SX.sym("centre", 2)
     body = cs.SX.sym("body", 5)
     c, s = turn[0], turn[1]
-    best, index = None, None
-    for k, ((ox, oy), radius) in enumerate(zip(base.offsets, base.circles[:, 2])):
+    best = None
+    for (ox, oy), radius in zip(base.offsets, base.circles[:, 2]):
         wx, wy = c * ox - s * oy, s * ox + c * oy
-        margin = _distance(mid[0] + wx - centre[0], mid[1] + wy - centre[1], body, round_) - radius
+        px, py = mid[0] + wx, mid[1] + wy
+        circle = [_distance(px - centre[0], py - centre[1], body, round_) - radius, px, py, wx, wy]
         if best is None:
-            best, index = margin, cs.SX(0.0)
+            best = circle
         else:
-            take = margin < best
-            best, index = cs.if_else(take, margin, best), cs.if_else(take, float(k), index)
+            take = circle[0] < best[0]
+            best = [cs.if_else(take, new, old) for new, old in zip(circle, best)]
     assert best is not None
-    names = (["mid", "turn", "centre", "body"], ["margin", "nearest"])
-    return cs.Function(
-        f"harmony_footprint_{'round' if round_ else 'box'}", [mid, turn, centre, body], [best - body[4], index], *names
-    )
+    margin, px, py, wx, wy = best
+    gx, gy = _gradient(px - centre[0], py - centre[1], body, round_)
+    names = (["mid", "turn", "centre", "body"], ["margin", "gx", "gy", "d_psi"])
+    outputs = [margin - body[4], gx, gy, gy * wx - gx * wy]  # d/d(heading) of the offset is (-wy, wx)
+    return cs.Function(f"harmony_footprint_{'round' if round_ else 'box'}", [mid, turn, centre, body], outputs, *names)
 
 
 class CompiledMargins:
-    """PlannedBase.margins' `nearest` for `samples` points, compiled (in the background from construction): a buffer
-    per body, holding its shape, so only the bodies near the footprint are evaluated."""
+    """PlannedBase.margins' `nearest` for `samples` points, compiled (in the background from construction): a map
+    over the samples per kind of body (round, box), the body's shape one input they share, so a step writes the
+    midpoints and headings once and each body near the footprint costs one call."""
 
     def __init__(self, base: PlannedBase, samples: int):
         self.base, self.samples = base, samples
-        kinds = {bool(r) for r in base._round}
-        self._code = {r: Compiling(margin_function(base, r).map(samples)) for r in sorted(kinds)}
-        self._f: list[Buffered | None] = [None] * len(base.bodies)
+        kinds = sorted({bool(r) for r in base._round})
+        self._code = {r: Compiling(margin_function(base, r).map("map", "serial", samples, [3], [])) for r in kinds}
+        self._f: dict[bool, Buffered] = {}
+        halves = base._halves.reshape(-1, 2)
+        self._shapes = np.column_stack([np.cos(base._yaws), np.sin(base._yaws), halves, base._clearances])
 
-    def load(self, k: int) -> Buffered:
-        """Body k's compiled code (the first call waits for gcc), its shape in its buffer."""
-        f = self._f[k]
+    def load(self, round_: bool) -> Buffered:
+        """A kind's compiled code (the first call waits for gcc)."""
+        f = self._f.get(round_)
         if f is None:
-            base = self.base
-            f = self._f[k] = Buffered(self._code[bool(base._round[k])].function)
-            yaw, half = base._yaws[k], base._halves[k]
-            shape = [np.cos(yaw), np.sin(yaw), half[0], half[1], base._clearances[k]]
-            f.args["body"].reshape(-1, 5)[:] = shape  # column-major (5, S): sample-major
+            f = self._f[round_] = Buffered(self._code[round_].function)
         return f
 
     def code_path(self) -> str:
-        """ "compiled C", or "CasADi VM" without gcc (codegen.py), "none" without bodies; loads every body's code."""
-        for k in range(len(self._f)):
-            self.load(k)
+        """ "compiled C", or "CasADi VM" without gcc (codegen.py), "none" without bodies; loads every kind's code."""
+        for round_ in self._code:
+            self.load(round_)
         return code_path(next(iter(self._code.values())).function) if self._code else "none"
 
-    def __call__(self, k: int, c: np.ndarray, s: np.ndarray, midpoints: np.ndarray, centres: np.ndarray):
-        """Body k's margin (S,) and nearest circle (S,) with the base yaw's cos and sin `c`, `s` (S,), the hands'
-        `midpoints` (S, 2) and the body's centres (S or 1, 2)."""
-        f = self.load(k)
-        turn = f.args["turn"].reshape(-1, 2)  # the buffers are column-major: (2, S) is (S, 2) in C order
-        f.args["mid"].reshape(-1, 2)[:], f.args["centre"].reshape(-1, 2)[:] = midpoints, centres
-        turn[:, 0], turn[:, 1] = c, s
-        f()  # the buffers set above in place: no inputs to copy
-        return f.res["margin"].copy(), f.res["nearest"].astype(int)
+    def __call__(self, picked: np.ndarray, c: np.ndarray, s: np.ndarray, midpoints: np.ndarray, centres: np.ndarray):
+        """The `picked` bodies' margins (picked, S) and their gradients, (picked, S, 2) with respect to the midpoint
+        and (picked, S) to the heading, with the base yaw's cos and sin `c`, `s` (S,), the hands' `midpoints` (S, 2)
+        and every body's centres (bodies, S or 1, 2)."""
+        S, kinds = self.samples, self.base._round[picked]
+        margins, grads, d_psi = np.empty((len(picked), S)), np.empty((len(picked), S, 2)), np.empty((len(picked), S))
+        for round_ in {bool(r) for r in kinds}:
+            f = self.load(round_)
+            turn = f.args["turn"].reshape(S, 2)  # the buffers are column-major: (2, S) is (S, 2) in C order
+            f.args["mid"].reshape(S, 2)[:], turn[:, 0], turn[:, 1] = midpoints, c, s
+        for i, (k, round_) in enumerate(zip(picked.tolist(), kinds.tolist())):
+            f = self._f[round_]
+            f.args["body"][:], f.args["centre"].reshape(S, 2)[:] = self._shapes[k], centres[k]
+            f()  # the buffers set above in place: no inputs to copy
+            res = f.res
+            margins[i], grads[i, :, 0], grads[i, :, 1], d_psi[i] = res["margin"], res["gx"], res["gy"], res["d_psi"]
+        return margins, grads, d_psi

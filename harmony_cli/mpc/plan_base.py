@@ -62,27 +62,26 @@ class PlannedBase:
     def margins(self, midpoints: np.ndarray, headings: np.ndarray, times: np.ndarray, near=None, nearest=None):
         """Per body (those `near`, a mask; all by default) and sample, the smallest margin (>= 0: clear) of any circle
         of the footprint placed at the hands' `midpoints` (S, 2) and `headings` (S,) at absolute `times` (S,); with
-        its gradient with respect to the midpoint (bodies, S, 2) and the heading (bodies, S). `nearest(k, c, s,
-        midpoints, centres)`: body k's margin and nearest circle per sample (footprint_code.py's compiled C, `c`, `s`:
+        its gradient with respect to the midpoint (bodies, S, 2) and the heading (bodies, S). `nearest(picked,
+        c, s, midpoints, centres)`: the picked bodies' margins and gradients (footprint_code.py's compiled C, `c`, `s`:
         the base yaw's cos and sin); by default every circle here, (circles, S) arrays a body (a few are near)."""
         picked = np.flatnonzero(np.ones(len(self.bodies), dtype=bool) if near is None else near)
         yaw = self.yaw_home + headings
         c, s = np.cos(yaw), np.sin(yaw)
+        if nearest is not None:
+            return nearest(picked, c, s, midpoints, self._centres_at(times))
+        centres = np.broadcast_to(self._centres_at(times), (len(self.bodies), len(times), 2))
+        margins, d_psi = np.empty((len(picked), len(times))), np.empty((len(picked), len(times)))
+        grads = np.empty((len(picked), len(times), 2))
         ox, oy = self.offsets[:, 0:1], self.offsets[:, 1:2]  # (n, 1) against (S,)
         wx, wy = c * ox - s * oy, s * ox + c * oy  # (n, S) the offsets turned; d/d(yaw) is (-wy, wx)
         px, py = midpoints[:, 0] + wx, midpoints[:, 1] + wy
-        centres = np.broadcast_to(self._centres_at(times), (len(self.bodies), len(times), 2))
         columns = np.arange(len(times))
-        margins, d_psi = np.empty((len(picked), len(times))), np.empty((len(picked), len(times)))
-        grads = np.empty((len(picked), len(times), 2))
         for i, k in enumerate(picked.tolist()):
             body = centres[k], self._yaws[k], self._halves[k], self._round[k]
-            if nearest is None:
-                margin = _plan_distance(px, py, *body)[0] - self.circles[:, 2:3]
-                index = np.argmin(margin, axis=0)  # (S,): the circle that matters at each sample
-                margins[i] = margin[index, columns] - self._clearances[k]
-            else:
-                margins[i], index = nearest(k, c, s, midpoints, centres[k])
+            margin = _plan_distance(px, py, *body)[0] - self.circles[:, 2:3]
+            index = np.argmin(margin, axis=0)  # (S,): the circle that matters at each sample
+            margins[i] = margin[index, columns] - self._clearances[k]
             at = index, columns
             _, gx, gy = _plan_distance(px[at][None], py[at][None], *body)  # that circle's gradient
             grads[i, :, 0], grads[i, :, 1] = gx[0], gy[0]
@@ -125,14 +124,17 @@ class PlannedBase:
             return np.zeros(0), np.zeros((0, 7 * basis.shape[0])), float(bound.min())
         margins, d_mid, d_psi = self.margins(np.column_stack([mx, my]), curves[6], times, near, nearest)
         reliefs = np.maximum(-np.minimum(margins[:, 0], margins[:, -1]), 0.0)
-        margins, d_mid, d_psi = margins[:, 1:] + reliefs[:, None], d_mid[:, 1:], d_psi[:, 1:]
+        margins = margins[:, 1:] + reliefs[:, None]
+        smallest = min(float(margins.min(initial=np.inf)), float(bound[~near].min(initial=np.inf)))
         body, sample = np.nonzero(margins < 0.0)
+        if not len(body):
+            return np.zeros(0), np.zeros((0, 7 * basis.shape[0])), smallest
+        d_mid, d_psi = d_mid[:, 1:], d_psi[:, 1:]
         J = np.zeros((len(body), 7, basis.shape[0]))
         along = basis[:, sample].T  # (m, free columns)
         for curve, axis in ((0, 0), (1, 1), (3, 0), (4, 1)):  # the midpoint is half of each hand
             J[:, curve] = along * (0.5 * weight * d_mid[body, sample, axis])[:, None]
         J[:, 6] = along * (weight * d_psi[body, sample])[:, None]
-        smallest = min(float(margins.min(initial=np.inf)), float(bound[~near].min(initial=np.inf)))
         return weight * margins[body, sample], J.reshape(len(body), 7 * basis.shape[0]), smallest
 
 

@@ -99,10 +99,11 @@ class Schedule:
 
     def holding(self, t: float) -> bool:
         """The box is held from the end of a grasp phase until a release phase starts."""
-        held = False
-        for phase, start, end in zip(self.phases, np.r_[0.0, self.ends[:-1]], self.ends):
+        held, start = False, 0.0
+        for phase, end in zip(self.phases, self.ends.tolist()):  # floats: a step's few calls cost microseconds
             if phase.release and t >= start:
                 held = False
             if phase.grasp and t >= end:
                 held = True
+            start = end
         return held
