@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from harmony_cli.maths.shapes import Shape
+from harmony_cli.mpc import route
 from harmony_cli.mpc.route import SIDES, footprint, plan_route
 
 
@@ -80,8 +81,8 @@ def test_an_outline_asked_for_again_is_the_one_computed_first_and_cannot_be_chan
     assert footprint(box, 0.26) is not first  # another radius is another outline
 
 
-def test_a_route_after_its_outlines_were_warmed_computes_none_of_its_own():
-    from harmony_cli.mpc import route
+def test_a_route_after_its_outlines_were_warmed_computes_none_of_them_nor_their_geometry():
+    from harmony_cli.mpc import visibility
     from harmony_cli.mpc.hand_plan import Obstacle
     from harmony_cli.mpc.plan_seed import Ground, route_around, warm_outlines
 
@@ -89,8 +90,32 @@ def test_a_route_after_its_outlines_were_warmed_computes_none_of_its_own():
     table = Shape("box", np.array([4.0, 0.0, 0.5]), 0.0, np.array([0.4, 0.75, 0.5]))
     ground = Ground([(table, 0.03)], base_radius=0.38)
     warm_outlines([crate], ground)
-    computed = route._outline.cache_info().misses
+    computed, geometry = route._outline.cache_info().misses, set(visibility._POLYGONS)
     hands = lambda x: np.array([[x, 0.15, 1.2], [x, -0.15, 1.2]])
     found = route_around([crate], hands(0.5), hands(3.2), (0.2, 0.15), ground)
     assert found is not None and len(found.points) > 2  # it went round the crate
     assert route._outline.cache_info().misses == computed
+    assert set(visibility._POLYGONS) == geometry
+
+
+def test_keeping_only_segments_tangent_at_their_corners_changes_no_route_on_random_scenes(monkeypatch):
+    """A shortest path among convex outlines bends round their corners: the full visibility graph finds the same."""
+    rng = np.random.default_rng(11)
+    scenes = []
+    for _ in range(300):
+        shapes = []
+        for _ in range(int(rng.integers(1, 9))):
+            half = np.r_[rng.uniform(0.1, 0.8, 2), 0.5]
+            kind = str(rng.choice(["box", "cylinder"]))
+            half[1] = half[0] if kind == "cylinder" else half[1]
+            shape = Shape(kind, np.r_[rng.uniform(-3, 3, 2), 0.5], float(rng.uniform(-np.pi, np.pi)), half)
+            shapes.append(footprint(shape, float(rng.uniform(0.0, 0.5))))
+        scenes.append((rng.uniform(-4, 4, 2), rng.uniform(-4, 4, 2), shapes))
+    tangent_only = [plan_route(*scene) for scene in scenes]
+    monkeypatch.setattr(route, "tangent", lambda nodes, i, j, polygons: np.ones(len(i), dtype=bool))
+    full = [plan_route(*scene) for scene in scenes]
+    assert sum(r is not None and len(r.points) > 2 for r in full) > 100  # a third and more go round something
+    for got, expected in zip(tangent_only, full):
+        assert (got is None) == (expected is None)
+        if expected is not None:
+            np.testing.assert_array_equal(got.points, expected.points)

@@ -14,6 +14,7 @@ import numpy as np
 
 from harmony_cli.maths.shapes import Shape
 from harmony_cli.mpc.route import Route, footprint, plan_route
+from harmony_cli.mpc.visibility import polygon_of
 
 if TYPE_CHECKING:
     from harmony_cli.mpc.hand_plan import HandState, Obstacle
@@ -90,15 +91,16 @@ def route_around(
 
 def warm_outlines(obstacles: list[Obstacle], ground: Ground | None) -> None:
     """route_around's outlines of the static obstacles and the tables when the base's half width is the widest
-    reach (EVA: 0.38 m against a 0.22 m box), computed ahead (route.footprint keeps them): a phase's first route,
-    inside a control step, then finds them ready (static_obstacles: 2-3 ms of its slowest step)."""
+    reach (EVA: 0.38 m against a 0.22 m box), and their geometry for the visibility tests, computed ahead
+    (route.footprint and visibility.polygon_of keep them): a phase's first route, inside a control step, then
+    finds them ready (static_obstacles: 2-3 ms of its slowest step)."""
     if ground is None:
         return
     for obstacle in obstacles:
         if obstacle.motion is None:
-            footprint(obstacle.shape, obstacle.clearance + ground.base_radius)
+            polygon_of(footprint(obstacle.shape, obstacle.clearance + ground.base_radius))
     for table, margin in ground.tables:
-        footprint(table, margin + ground.base_radius)
+        polygon_of(footprint(table, margin + ground.base_radius))
 
 
 def on_route(C, ends, obstacles, carried, ground, via, sampling) -> np.ndarray | None:

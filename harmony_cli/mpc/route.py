@@ -20,9 +20,9 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from harmony_cli.maths.shapes import Shape
+from harmony_cli.mpc.visibility import OUTSET, Polygon, inside, polygon_of, tangent, visible
 
 SIDES = 16  # polygon sides of a grown round shape or corner
-OUTSET = 1e-6  # [m] corners pushed out so a route along an edge does not count as entering
 
 
 @dataclass(frozen=True)
@@ -63,20 +63,19 @@ def plan_route(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray]) 
     An end inside an outline leaves it by the nearest way out (e.g. hands over a table's edge: out over that
     edge) and the rest of the path keeps out of it; None if the ends are not connected."""
     start, goal = np.asarray(start, float)[:2], np.asarray(goal, float)[:2]
-    first, last = _way_out(start, outlines), _way_out(goal, outlines)
-    held = [o for o in outlines if _inside(o, first) or _inside(o, last)]  # still inside after the way out
-    blocking = [o for o in outlines if not any(o is h for h in held)]
-    nodes = np.vstack([first, last, *(_pushed_out(o) for o in blocking)])
-    i, j = np.triu_indices(len(nodes), k=1)
-    visible, low, high = np.ones(len(i), dtype=bool), np.minimum(nodes[i], nodes[j]), np.maximum(nodes[i], nodes[j])
-    for outline in blocking:  # only the segments whose bounding box overlaps the outline's can enter it
-        near = np.flatnonzero(
-            visible & np.all(high > outline.min(axis=0), axis=1) & np.all(low < outline.max(axis=0), axis=1)
-        )
-        visible[near] = ~_crosses(outline, nodes[i[near]], nodes[j[near]])
-    lengths = np.maximum(np.linalg.norm(nodes[i[visible]] - nodes[j[visible]], axis=1), 1e-12)
-    # sparse, as dijkstra stores a dense matrix anyway: the same graph without building the n x n array
-    weights = csr_matrix((lengths, (i[visible], j[visible])), shape=(len(nodes), len(nodes)))
+    polygons = [polygon_of(o) for o in outlines]
+    first, last = _way_out(start, polygons), _way_out(goal, polygons)
+    blocking = [p for p in polygons if not (inside(p, first) or inside(p, last))]  # held: left by the way out
+    nodes = np.vstack([first, last, *(p.nodes for p in blocking)])
+    i, j = _pairs(len(nodes))
+    keep = np.flatnonzero(tangent(nodes, i, j, blocking))
+    i, j = i[keep], j[keep]
+    seen = visible(nodes, i, j, blocking)
+    rows, columns = i[seen], j[seen]
+    lengths = np.maximum(np.linalg.norm(nodes[rows] - nodes[columns], axis=1), 1e-12)
+    # compressed rows built directly (the pairs come row by row, columns rising): the COO path's arrays, less work
+    starts = np.searchsorted(rows, np.arange(len(nodes) + 1)).astype(np.int32)
+    weights = csr_matrix((lengths, columns.astype(np.int32), starts), shape=(len(nodes), len(nodes)))
     distances, previous = dijkstra(weights, directed=False, indices=0, return_predecessors=True)
     if not np.isfinite(distances[1]):
         return None
@@ -89,11 +88,19 @@ def plan_route(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray]) 
     return Route(points, float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum()))
 
 
-def _way_out(point: np.ndarray, outlines: list[np.ndarray]) -> np.ndarray:
+@lru_cache(maxsize=64)
+def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every pair of n nodes, row by row with the columns rising (np.triu_indices), read-only."""
+    i, j = np.triu_indices(n, k=1)
+    i.flags.writeable = j.flags.writeable = False
+    return i, j
+
+
+def _way_out(point: np.ndarray, polygons: list[Polygon]) -> np.ndarray:
     """`point`, or, inside an outline, the nearest point just outside it (one outline: the first holding it)."""
-    for outline in outlines:
-        if _inside(outline, point):
-            edges = np.diff(outline, axis=0, append=outline[:1])
+    for polygon in polygons:
+        if inside(polygon, point):
+            outline, edges = polygon.outline, polygon.edges
             along = np.clip(np.sum((point - outline) * edges, axis=1) / np.sum(edges * edges, axis=1), 0.0, 1.0)
             feet = outline + along[:, None] * edges
             foot = feet[np.argmin(np.linalg.norm(feet - point, axis=1))]
@@ -125,35 +132,3 @@ def _convex_hull(points: np.ndarray) -> np.ndarray:
 
 def _cross(o, a, b) -> float:
     return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-
-def _pushed_out(outline: np.ndarray) -> np.ndarray:
-    centre = outline.mean(axis=0)
-    d = outline - centre
-    return outline + OUTSET * d / np.linalg.norm(d, axis=1, keepdims=True)
-
-
-def _inside(outline: np.ndarray, point: np.ndarray) -> bool:
-    edges = np.diff(outline, axis=0, append=outline[:1])
-    rel = point - outline
-    return bool(np.all(edges[:, 0] * rel[:, 1] - edges[:, 1] * rel[:, 0] > 0))
-
-
-def _crosses(outline: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Whether each segment a[n]-b[n] ((n, 2) each) enters the interior of the convex outline (separating axes:
-    its edges' normals and the segment's; touching an edge or a corner is not entering)."""
-    tol = 1e-9
-    edges = np.diff(outline, axis=0, append=outline[:1])
-    normals = np.column_stack([edges[:, 1], -edges[:, 0]])
-    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    polygon = outline @ normals.T  # (vertices, edges)
-    low, high = polygon.min(axis=0), polygon.max(axis=0)
-    pa, pb = a @ normals.T, b @ normals.T  # (n, edges)
-    apart = (np.maximum(pa, pb) <= low + tol) | (np.minimum(pa, pb) >= high - tol)
-    across = np.column_stack([a[:, 1] - b[:, 1], b[:, 0] - a[:, 0]])  # the segments' own normals
-    length = np.linalg.norm(across, axis=1, keepdims=True)
-    across = across / np.maximum(length, 1e-15)
-    own = (outline @ across.T).T  # (n, vertices)
-    level = np.sum(a * across, axis=1)  # both ends project here
-    beside = (level <= own.min(axis=1) + tol) | (level >= own.max(axis=1) - tol)
-    return ~(apart.any(axis=1) | (beside & (length[:, 0] > 1e-15)))
