@@ -174,15 +174,15 @@ class TaskPlanner:
             self._reliefs, self._relief_key = goal_reliefs(self.obstacles, goal, t + T, carried), key
         ends = (state, goal, heading_goal)
         via = self.via if fresh else None  # TaskReferences sets it at a phase change: the phase's first plan only
-        self.via, self._route_next = None, self._route_next and not fresh
-        # the way to a chosen stance is known (the straight line leads to the blocked side): its route's SQP alone
-        solved = on_route_plan(self, None, t, T, ends, carried, width, via) if via is not None else None
+        route_now, self.via, self._route_next = self._route_next and not fresh, None, False
+        # the way to a chosen stance is known (the straight line leads to the blocked side), or the phase's first
+        # plan wanted a route: its route's SQP alone (one SQP a step), the plan's own step if it fails
+        solved = on_route_plan(self, None, t, T, ends, carried, width, via) if via is not None or route_now else None
         if solved is None or not solved.success:
             solved = self._solve(C, t, T, ends, iterations, carried, width)
             if fresh and solved.success:  # a route, if this plan wants one, on the next step: one SQP a step
                 self._route_next = bool(self.obstacles) and not is_clean(solved, self.B, self.obstacles)
-            elif self.obstacles and (self._route_next or not solved.success):
-                self._route_next = False
+            elif self.obstacles and not solved.success and not route_now:
                 solved = on_route_plan(self, solved, t, T, ends, carried, width) or solved
         C, success, status = solved.C, solved.success, solved.status
         if success and not np.isfinite(C).all():  # NaN / inf never becomes the plan: the last one is held
