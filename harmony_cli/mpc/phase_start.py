@@ -1,7 +1,8 @@
 """How the task-space planner gets a phase's first plan when the straight line does not do: a longer horizon (the
 rate bounds), relaxed clearance rows (a start inside a margin) and a route round the obstacles (global guidance),
 each at a bounded cost per control step: a QP that fails costs as much as a few that solve, and a route's SQP runs
-on the step after the straight line's, or instead of it when the phase has a point to pass (planner.py)."""
+on the step after the straight line's instead of that plan's own step, or instead of the straight line's when the
+phase has a point to pass (planner.py)."""
 
 from __future__ import annotations
 
