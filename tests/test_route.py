@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.mpc import route
+from harmony_cli.mpc import route, visibility
 from harmony_cli.mpc.route import SIDES, footprint, plan_route
 
 
@@ -82,7 +82,6 @@ def test_an_outline_asked_for_again_is_the_one_computed_first_and_cannot_be_chan
 
 
 def test_a_route_after_its_outlines_were_warmed_computes_none_of_them_nor_their_geometry():
-    from harmony_cli.mpc import visibility
     from harmony_cli.mpc.hand_plan import Obstacle
     from harmony_cli.mpc.plan_seed import Ground, route_around, warm_outlines
 

@@ -15,30 +15,33 @@ from harmony_cli.mpc.plan_base import PlannedBase
 def _distance(dx, dy, body, round_: bool):
     """plan_base._plan_distance's signed distance, operation for operation, of one point relative to a body's
     centre; `body`: the symbols cos and sin of its yaw, half sizes (2)."""
-    c, s, half = body[0], body[1], body[2:4]
     if round_:
-        return cs.fmax(cs.hypot(dx, dy), 1e-12) - half[0]
-    lx, ly = c * dx + s * dy, -s * dx + c * dy
-    ex, ey = cs.fabs(lx) - half[0], cs.fabs(ly) - half[1]
-    outside = cs.hypot(cs.fmax(ex, 0.0), cs.fmax(ey, 0.0))
+        return cs.fmax(cs.hypot(dx, dy), 1e-12) - body[2]
+    _, _, ex, ey, outside = _box_frame(dx, dy, body)
     return cs.if_else(outside == 0.0, cs.fmax(ex, ey), outside)
 
 
 def _gradient(dx, dy, body, round_: bool):
     """plan_base._plan_distance's gradient (gx, gy), operation for operation."""
-    c, s, half = body[0], body[1], body[2:4]
     if round_:
         radial = cs.fmax(cs.hypot(dx, dy), 1e-12)
         return dx / radial, dy / radial
+    c, s = body[0], body[1]
+    lx, ly, ex, ey, outside = _box_frame(dx, dy, body)
+    inside = outside == 0.0
+    # fmax(1 / x, 0) = 1 / x, but keeps ox * scale a product: CasADi folds x * (1 / y) into x / y, rounded apart
+    scale = cs.if_else(inside, 0.0, cs.fmax(1.0 / cs.fmax(outside, 1e-12), 0.0))
+    gx = cs.sign(lx) * cs.if_else(inside, ex >= ey, cs.fmax(ex, 0.0) * scale)
+    gy = cs.sign(ly) * cs.if_else(inside, ex < ey, cs.fmax(ey, 0.0) * scale)
+    return c * gx - s * gy, s * gx + c * gy
+
+
+def _box_frame(dx, dy, body):
+    """A box's frame: the point in it (lx, ly), its excess over the half sizes (ex, ey), its distance outside."""
+    c, s, half = body[0], body[1], body[2:4]
     lx, ly = c * dx + s * dy, -s * dx + c * dy
     ex, ey = cs.fabs(lx) - half[0], cs.fabs(ly) - half[1]
-    ox, oy = cs.fmax(ex, 0.0), cs.fmax(ey, 0.0)
-    inside = cs.hypot(ox, oy) == 0.0
-    # fmax(1 / x, 0) = 1 / x, but keeps ox * scale a product: CasADi folds x * (1 / y) into x / y, rounded apart
-    scale = cs.if_else(inside, 0.0, cs.fmax(1.0 / cs.fmax(cs.hypot(ox, oy), 1e-12), 0.0))
-    gx = cs.sign(lx) * cs.if_else(inside, ex >= ey, ox * scale)
-    gy = cs.sign(ly) * cs.if_else(inside, ex < ey, oy * scale)
-    return c * gx - s * gy, s * gx + c * gy
+    return lx, ly, ex, ey, cs.hypot(cs.fmax(ex, 0.0), cs.fmax(ey, 0.0))
 
 
 def margin_function(base: PlannedBase, round_: bool) -> cs.Function:
