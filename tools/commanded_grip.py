@@ -20,51 +20,38 @@ import numpy as np
 import pandas as pd
 import pinocchio as pin
 
-from harmony_cli.scenario import load_scenario, robot_of
+from harmony_cli.robot.model import Robot
+from harmony_cli.scenario import ScenarioError, load_scenario, robot_of
 
 
-def hand_positions(model, data, robot, q: np.ndarray) -> np.ndarray:
-    """(hands, 3) world positions of the robot's end effectors at its joint vector q (Pinocchio)."""
-    q_pin = np.zeros(model.nq)
-    q_pin[[model.joints[model.getJointId(j)].idx_q for j in robot.joint_names]] = q
-    pin.framesForwardKinematics(model, data, q_pin)
-    return np.array([data.oMf[model.getFrameId(link)].translation for link in robot.end_effectors])
-
-
-def grip_table(run_dir: Path, start: float, end: float, every: int) -> pd.DataFrame:
-    scenario = load_scenario(run_dir / "scenario.resolved.yaml")
-    robot = robot_of(scenario, run_dir)  # as `harmony run RUN_DIR/scenario.resolved.yaml` resolves its paths
+def grip_widths(robot: Robot, steps: pd.DataFrame) -> pd.DataFrame:
+    """Per row of a steps.csv frame: the hands' distance apart as referenced, commanded and measured [mm], the
+    compliant offsets [mm] and the pad forces [N]."""
     model = pin.buildModelFromUrdf(str(robot.urdf))
     data = model.createData()
-    steps = pd.read_csv(run_dir / "steps.csv")
-    steps = steps[(steps.t >= start) & (steps.t <= end)].iloc[::every]
+    columns = [model.joints[model.getJointId(j)].idx_q for j in robot.joint_names]
+    frames = [model.getFrameId(link) for link in robot.end_effectors]
+    commanded = []
+    for q in steps[[f"cmd_q_{j}" for j in robot.joint_names]].to_numpy(float):
+        q_pin = np.zeros(model.nq)
+        q_pin[columns] = q
+        pin.framesForwardKinematics(model, data, q_pin)
+        commanded.append(data.oMf[frames[1]].translation - data.oMf[frames[0]].translation)
     left, right = robot.hand_names
-    rows = []
-    for _, r in steps.iterrows():
-        commanded = hand_positions(model, data, robot, r[[f"cmd_q_{j}" for j in robot.joint_names]].to_numpy(float))
-        width = {
-            kind: 1e3
-            * float(
-                np.linalg.norm(
-                    r[[f"{right}_{kind}_{a}" for a in "xyz"]].to_numpy(float)
-                    - r[[f"{left}_{kind}_{a}" for a in "xyz"]].to_numpy(float)
-                )
-            )
-            for kind in ("ref", "meas")
+    apart = lambda kind: (
+        steps[[f"{right}_{kind}_{a}" for a in "xyz"]].to_numpy(float)
+        - steps[[f"{left}_{kind}_{a}" for a in "xyz"]].to_numpy(float)
+    )
+    return pd.DataFrame(
+        {
+            "t": steps.t.to_numpy(),
+            "reference_mm": 1e3 * np.linalg.norm(apart("ref"), axis=1),
+            "commanded_mm": 1e3 * np.linalg.norm(np.reshape(commanded, (-1, 3)), axis=1),
+            "measured_mm": 1e3 * np.linalg.norm(apart("meas"), axis=1),
+            **{f"{h}_offset_mm": 1e3 * steps[f"{h}_offset_m"].to_numpy() for h in (left, right)},
+            **{f"{h}_force_N": steps[f"{h}_force_normal_N"].to_numpy() for h in (left, right)},
         }
-        rows.append(
-            {
-                "t": r.t,
-                "reference_mm": width["ref"],
-                "commanded_mm": 1e3 * float(np.linalg.norm(commanded[1] - commanded[0])),
-                "measured_mm": width["meas"],
-                f"{left}_offset_mm": 1e3 * r[f"{left}_offset_m"],
-                f"{right}_offset_mm": 1e3 * r[f"{right}_offset_m"],
-                f"{left}_force_N": r[f"{left}_force_normal_N"],
-                f"{right}_force_N": r[f"{right}_force_normal_N"],
-            }
-        )
-    return pd.DataFrame(rows)
+    )
 
 
 def main() -> None:
@@ -74,7 +61,21 @@ def main() -> None:
     parser.add_argument("--to", dest="end", type=float, default=np.inf, help="last time [s]")
     parser.add_argument("--every", type=int, default=1, help="every n-th control step")
     args = parser.parse_args()
-    print(grip_table(args.run_dir, args.start, args.end, args.every).round(2).to_string(index=False))
+    missing = [n for n in ("steps.csv", "scenario.resolved.yaml") if not (args.run_dir / n).is_file()]
+    if missing:
+        parser.error(f"{args.run_dir}: not a run directory (no {' or '.join(missing)})")
+    try:
+        scenario = load_scenario(args.run_dir / "scenario.resolved.yaml")
+        robot = robot_of(scenario, args.run_dir)  # as `harmony run RUN_DIR/scenario.resolved.yaml` resolves paths
+    except ScenarioError as exc:
+        parser.error(str(exc))
+    if len(robot.hand_names) != 2:
+        parser.error(f"{args.run_dir}: the robot has {len(robot.hand_names)} hands; a grip needs 2")
+    steps = pd.read_csv(args.run_dir / "steps.csv")
+    steps = steps[(steps.t >= args.start) & (steps.t <= args.end)].iloc[:: max(args.every, 1)]
+    if steps.empty:
+        parser.error(f"{args.run_dir}: no control step between --from {args.start} and --to {args.end}")
+    print(grip_widths(robot, steps).round(2).to_string(index=False))
 
 
 if __name__ == "__main__":
