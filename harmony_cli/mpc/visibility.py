@@ -75,9 +75,9 @@ def tangent(nodes: np.ndarray, i: np.ndarray, j: np.ndarray, polygons: list[Poly
     length = np.sqrt(np.sum(d * d, axis=1))
     keep = np.ones(len(i), dtype=bool)
     for end in (i, j):
-        u = nodes[end]
-        c1 = d[:, 0] * (nodes[before[end], 1] - u[:, 1]) - d[:, 1] * (nodes[before[end], 0] - u[:, 0])
-        c2 = d[:, 0] * (nodes[after[end], 1] - u[:, 1]) - d[:, 1] * (nodes[after[end], 0] - u[:, 0])
+        u, b, a = nodes[end], nodes[before[end]], nodes[after[end]]
+        c1 = d[:, 0] * (b[:, 1] - u[:, 1]) - d[:, 1] * (b[:, 0] - u[:, 0])
+        c2 = d[:, 0] * (a[:, 1] - u[:, 1]) - d[:, 1] * (a[:, 0] - u[:, 0])
         across = (c1 * c2 < 0.0) & (np.minimum(np.abs(c1), np.abs(c2)) > ON_LINE * length)
         keep &= ~across
     return keep
