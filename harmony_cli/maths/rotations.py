@@ -23,3 +23,13 @@ def heading_of(rotations: np.ndarray, home_rotations: np.ndarray) -> float:
     """Common heading of the hands: mean yaw of R_h R_h(home)^T."""
     relative = np.einsum("hij,hkj->hik", rotations, home_rotations)
     return float(np.arctan2(relative[:, 1, 0].sum(), relative[:, 0, 0].sum()))
+
+
+def off_square_deg(quaternion: np.ndarray, line: np.ndarray) -> float:
+    """[deg] in plan view, how far a box (orientation `quaternion` x, y, z, w) is turned from being gripped square
+    across the direction `line` (3,): the angle between the line and the nearest of the box's side axes, in
+    [0, 45]. 0: the pads lie flat on two opposite faces; above it they hold the box on its vertical edges."""
+    x, y, z, w = quaternion
+    axis = np.array([1 - 2 * (y * y + z * z), 2 * (x * y + w * z)])  # the box's x axis, plan view
+    angle = np.degrees(np.arctan2(axis[1], axis[0]) - np.arctan2(line[1], line[0])) % 90.0
+    return float(min(angle, 90.0 - angle))

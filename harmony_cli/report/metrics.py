@@ -95,6 +95,7 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
         error = float(np.linalg.norm(final - np.asarray(box.goal))) if box.goal else None
         upright = float(steps["box_tilt_deg"].iloc[-1]) < UPRIGHT_DEG
         out |= {
+            "grip_off_square_deg": grip_off_square(steps),
             "box_final": final.tolist(),
             "box_goal_error_m": error,
             "box_upright": upright,
@@ -105,6 +106,14 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
     if "success" in out:
         out["failure"] = task_failure(out, steps)
     return out
+
+
+def grip_off_square(steps: pd.DataFrame) -> float | None:
+    """[deg] how far the box was turned from square in the grip when it was first held (the lift's start: squeezed,
+    not yet lifted); None if it never was (or the run logs no such column)."""
+    if "box_off_square_deg" not in steps or "holding" not in steps or not steps["holding"].astype(bool).any():
+        return None
+    return float(steps["box_off_square_deg"][steps["holding"].astype(bool)].iloc[0])
 
 
 def force_outcome(steps: pd.DataFrame, hands: list[str]) -> dict | None:

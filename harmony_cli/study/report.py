@@ -18,6 +18,7 @@ from harmony_cli.study.table import TABLE
 Z95 = 1.959963984540054  # the standard normal's 97.5 % quantile
 METRICS = (  # (column or prefix, what it is, unit scale, unit): distributions in the report
     ("summary.task.box_goal_error_m", "box goal error", 100.0, "cm"),
+    ("summary.task.grip_off_square_deg", "grip off square when first held", 1.0, "deg"),
     ("summary.task.min_clearance_m.", "min clearance (robot and box, every obstacle)", 100.0, "cm"),
     ("summary.task.loop_time_ms.p95", "loop time p95", 1.0, "ms"),
     ("summary.task.loop_time_ms.max", "loop time max", 1.0, "ms"),
@@ -137,8 +138,11 @@ def _plot_outcomes(counts: pd.DataFrame, study: Path) -> Path:
 
 
 def _plot_metrics(table: pd.DataFrame, study: Path) -> Path:
-    fig, axes = plt.subplots(2, 3, figsize=(12, 6.5))
-    for ax, (column, what, scale, unit) in zip(axes.ravel(), METRICS, strict=True):
+    columns = -(-len(METRICS) // 2)
+    fig, axes = plt.subplots(2, columns, figsize=(4 * columns, 6.5))
+    for ax in axes.ravel()[len(METRICS) :]:
+        ax.axis("off")
+    for ax, (column, what, scale, unit) in zip(axes.ravel()[: len(METRICS)], METRICS, strict=True):
         groups = [(p, metric(r, column).dropna() * scale) for p, r in table.groupby("point", sort=False)]
         groups = [(p, v) for p, v in groups if len(v)]
         if groups:
