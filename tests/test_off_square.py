@@ -1,10 +1,10 @@
-"""How far a box is turned from square in a grip, checked against SciPy's rotations (an independent quaternion
-convention and composition)."""
+"""How far a box is turned from square between two pads, checked against SciPy's rotations (an independent quaternion
+convention and composition), and how far one pad is ahead of the other."""
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from harmony_cli.maths.rotations import off_square_deg
+from harmony_cli.maths.rotations import grip_shear, off_square_deg, pad_axis
 
 
 def test_a_box_turned_about_the_vertical_is_off_square_by_its_turn_from_the_line_folded_to_45_deg():
@@ -24,3 +24,16 @@ def test_square_grips_are_zero_and_a_diagonal_grip_is_45_deg():
     assert np.isclose(off_square_deg(square, np.array([1.0, 0.0, 0.0])), 0.0, atol=1e-9)
     assert np.isclose(off_square_deg(square, np.array([0.0, -2.0, 0.0])), 0.0, atol=1e-9)
     assert np.isclose(off_square_deg(np.array([0, 0, 0, 1.0]), np.array([1.0, 1.0, 0.0])), 45.0)
+
+
+def test_one_pad_ahead_of_the_other_is_the_shear_whatever_the_grip_heading_and_normal_convention():
+    """Pads 0.3 m apart on an axis turned by any heading, the right one 12 mm ahead along the faces (and 5 cm higher,
+    which plan view ignores): shear 12 mm, with the normals facing each other or given the same way."""
+    for heading in np.radians([0.0, 37.0, -120.0, 90.0]):
+        axis = np.array([np.cos(heading), np.sin(heading), 0.0])
+        across = np.array([-np.sin(heading), np.cos(heading), 0.0])
+        start = np.array([[1.0, 2.0, 1.2], [1.0, 2.0, 1.25]])
+        hands = start + np.outer([0.0, 0.3], axis) + np.outer([0.0, 0.012], across)
+        for normals in (np.array([axis, -axis]), np.array([axis, axis])):
+            assert np.isclose(grip_shear(hands, pad_axis(normals)), 0.012)
+        assert np.isclose(grip_shear(hands - np.outer([0.0, 0.012], across), pad_axis(np.array([axis, -axis]))), 0.0)

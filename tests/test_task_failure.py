@@ -2,7 +2,7 @@
 
 import pandas as pd
 
-from harmony_cli.report.metrics import grip_off_square
+from harmony_cli.report.metrics import first_held
 from harmony_cli.report.task_failure import fell_at, task_failure
 
 TABLES = [1.015, 0.9]  # table top heights [m]
@@ -123,13 +123,18 @@ def test_a_failure_says_when_it_happened_a_drop_at_its_first_step_an_off_goal_bo
     assert task_failure(off | {"box_goal_error_m": 0.5}, steps)["at_s"] is None
 
 
-def test_a_drop_says_when_the_box_was_gripped_off_square_and_a_square_grip_says_nothing():
-    """grip_off_square_deg, the box's turn in the grip at the first held step, joins a drop's reason above 0.5 deg."""
+def test_a_drop_names_a_grasp_off_square_or_sheared_and_a_clean_grasp_adds_nothing():
+    """The grasp as made (its values at the first held step) joins a drop's reason above 0.5 deg off square against
+    the pads or 5 mm of shear."""
     steps = _steps([1.165, 1.165, 0.6, 0.15], [False, True, True, True])
     steps["box_off_square_deg"] = [7.0, 1.9, 3.0, 20.0]
     task = {"success": False, "box_dropped": True, "box_fell_s": steps["t"][2], "box_final": [3.0, 2.0, 0.15]}
-    assert grip_off_square(steps) == 1.9  # at the first held step, not before or after
-    reason = task_failure(task | {"grip_off_square_deg": 1.9}, steps)["reason"]
-    assert reason.endswith("; it was gripped 1.9 deg off square (on its vertical edges, not flat on its faces)")
-    assert "off square" not in task_failure(task | {"grip_off_square_deg": 0.05}, steps)["reason"]
-    assert grip_off_square(steps.assign(holding=False)) is None
+    assert first_held(steps, "box_off_square_deg") == 1.9  # at the first held step, not before or after
+    reason = task_failure(task | {"grip_off_square_deg": 1.9, "grip_shear_m": 0.012}, steps)["reason"]
+    assert reason.endswith(
+        "; it was gripped 1.9 deg off square against the pads (on its edges) and with one pad 12 mm ahead of the other"
+    )
+    reason = task_failure(task | {"grip_off_square_deg": 0.3, "grip_shear_m": 0.012}, steps)["reason"]
+    assert reason.endswith("; it was gripped with one pad 12 mm ahead of the other")
+    assert "gripped" not in task_failure(task | {"grip_off_square_deg": 0.05, "grip_shear_m": 0.001}, steps)["reason"]
+    assert first_held(steps.assign(holding=False), "box_off_square_deg") is None

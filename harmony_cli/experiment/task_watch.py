@@ -1,12 +1,12 @@
-"""What the log records of a task beyond the loop: each hand's distance to its phase goal, and the box from
-ground truth (held, touching the robot, tilted, turned in the grip, dropped). Outside the timed loop; never seen by
-a controller."""
+"""What the log records of a task beyond the loop: each hand's distance to its phase goal, the box from ground
+truth (held, touching the robot, tilted, turned against the pads, dropped) and the hands' shear across the pads.
+Outside the timed loop; never seen by a controller."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from harmony_cli.maths.rotations import off_square_deg
+from harmony_cli.maths.rotations import grip_shear, off_square_deg, pad_axis
 from harmony_cli.robot.observation import Observation
 from harmony_cli.sim.simulation import Truth
 from harmony_cli.tasks.two_stage import TaskReferences
@@ -37,9 +37,10 @@ class TaskWatch:
         if self.loose_since is not None and t - self.loose_since >= DROP_AFTER and self.dropped_at is None:
             self.dropped_at = t
         tilt = float(np.degrees(np.arccos(np.clip(truth.box_z_axis[2], -1, 1))))
-        if truth.box_pose is not None and len(obs.hand_positions) == 2:  # the box against the hands' line
-            line = obs.hand_positions[1] - obs.hand_positions[0]
-            row["box_off_square_deg"] = off_square_deg(truth.box_pose[3:7], line)
+        if truth.box_pose is not None and len(obs.hand_positions) == 2:  # the box against the pads (e_z: normal)
+            axis = pad_axis(obs.hand_rotations[:, :, 2])
+            row["box_off_square_deg"] = off_square_deg(truth.box_pose[3:7], axis)
+            row["grip_shear_m"] = grip_shear(obs.hand_positions, axis)
         return row | {
             "box_x": centre[0],
             "box_y": centre[1],

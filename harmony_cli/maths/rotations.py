@@ -26,10 +26,23 @@ def heading_of(rotations: np.ndarray, home_rotations: np.ndarray) -> float:
 
 
 def off_square_deg(quaternion: np.ndarray, line: np.ndarray) -> float:
-    """[deg] in plan view, how far a box (orientation `quaternion` x, y, z, w) is turned from being gripped square
-    across the direction `line` (3,): the angle between the line and the nearest of the box's side axes, in
-    [0, 45]. 0: the pads lie flat on two opposite faces; above it they hold the box on its vertical edges."""
+    """[deg] in plan view, how far a box (orientation `quaternion` x, y, z, w) is turned from lying square across
+    the direction `line` (3,): the angle between the line and the nearest of the box's side axes, in [0, 45]. With
+    the pads' normal as the line, 0: the pads lie flat on two opposite faces; above it they hold it on its edges."""
     x, y, z, w = quaternion
     axis = np.array([1 - 2 * (y * y + z * z), 2 * (x * y + w * z)])  # the box's x axis, plan view
     angle = np.degrees(np.arctan2(axis[1], axis[0]) - np.arctan2(line[1], line[0])) % 90.0
     return float(min(angle, 90.0 - angle))
+
+
+def pad_axis(normals: np.ndarray) -> np.ndarray:
+    """The axis (3,) of two pads facing each other from their normals (2, 3): their difference when they point at
+    each other (or apart), their sum when a robot's frames give both the same way."""
+    return normals[1] - normals[0] if float(normals[0] @ normals[1]) < 0 else normals[1] + normals[0]
+
+
+def grip_shear(positions: np.ndarray, axis: np.ndarray) -> float:
+    """[m] in plan view, how far one hand (positions (2, 3)) is ahead of the other across the pads' `axis`: 0 when
+    the line between them is the axis; otherwise their squeeze is a couple that turns what they hold."""
+    d, u = (positions[1] - positions[0])[:2], axis[:2] / max(float(np.hypot(*axis[:2])), 1e-12)
+    return float(abs(d[0] * u[1] - d[1] * u[0]))

@@ -95,7 +95,8 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
         error = float(np.linalg.norm(final - np.asarray(box.goal))) if box.goal else None
         upright = float(steps["box_tilt_deg"].iloc[-1]) < UPRIGHT_DEG
         out |= {
-            "grip_off_square_deg": grip_off_square(steps),
+            "grip_off_square_deg": first_held(steps, "box_off_square_deg"),
+            "grip_shear_m": first_held(steps, "grip_shear_m"),
             "box_final": final.tolist(),
             "box_goal_error_m": error,
             "box_upright": upright,
@@ -108,12 +109,12 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
     return out
 
 
-def grip_off_square(steps: pd.DataFrame) -> float | None:
-    """[deg] how far the box was turned from square in the grip when it was first held (the lift's start: squeezed,
-    not yet lifted); None if it never was (or the run logs no such column)."""
-    if "box_off_square_deg" not in steps or "holding" not in steps or not steps["holding"].astype(bool).any():
+def first_held(steps: pd.DataFrame, column: str) -> float | None:
+    """A column's value when the box was first held (the lift's start: squeezed, not yet lifted): the grasp as
+    made; None if it never was held (or the run logs no such column)."""
+    if column not in steps or "holding" not in steps or not steps["holding"].astype(bool).any():
         return None
-    return float(steps["box_off_square_deg"][steps["holding"].astype(bool)].iloc[0])
+    return float(steps[column][steps["holding"].astype(bool)].iloc[0])
 
 
 def force_outcome(steps: pd.DataFrame, hands: list[str]) -> dict | None:

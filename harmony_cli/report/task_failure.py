@@ -14,9 +14,11 @@ import numpy as np
 import pandas as pd
 
 FELL_BELOW = 0.05  # [m] a box whose centre sinks this far below resting on the lowest table top has fallen off
-# [deg] a grasp this far from square holds the box on its vertical edges. Measured in the random study (issue 14):
-# grasps were either within 0.1 deg or 1.3 deg and more off, and half its failures came from the second kind.
+# A grasp named in a drop's reason: the box this far off square against the pads (held on its edges), or one pad
+# this far ahead of the other across their axis (their squeeze a couple that turns the box). In the random study
+# (issue 14) grasps were within 0.04 deg and 0.2 mm, or 0.27 deg and 8 mm and more off.
 OFF_SQUARE_DEG = 0.5
+SHEAR_M = 0.005
 
 
 def fell_at(steps: pd.DataFrame, table_tops: list[float], box_height: float) -> float | None:
@@ -55,9 +57,14 @@ def _dropped(task: dict, steps: pd.DataFrame) -> str:
         parts.append(
             f"{subject} fell off the tables {held} at {_when(steps, fell)}, to z = {task['box_final'][2]:.2f} m"
         )
-    off = task.get("grip_off_square_deg")
-    if parts and off is not None and off > OFF_SQUARE_DEG:
-        parts.append(f"it was gripped {off:.1f} deg off square (on its vertical edges, not flat on its faces)")
+    off, shear = task.get("grip_off_square_deg"), task.get("grip_shear_m")
+    grasp = []
+    if off is not None and off > OFF_SQUARE_DEG:
+        grasp.append(f"{off:.1f} deg off square against the pads (on its edges)")
+    if shear is not None and shear > SHEAR_M:
+        grasp.append(f"with one pad {1e3 * shear:.0f} mm ahead of the other")
+    if parts and grasp:
+        parts.append(f"it was gripped {' and '.join(grasp)}")
     return "; ".join(parts)
 
 

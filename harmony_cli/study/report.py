@@ -18,7 +18,8 @@ from harmony_cli.study.table import TABLE
 Z95 = 1.959963984540054  # the standard normal's 97.5 % quantile
 METRICS = (  # (column or prefix, what it is, unit scale, unit): distributions in the report
     ("summary.task.box_goal_error_m", "box goal error", 100.0, "cm"),
-    ("summary.task.grip_off_square_deg", "grip off square when first held", 1.0, "deg"),
+    ("summary.task.grip_off_square_deg", "box off square against the pads, first held", 1.0, "deg"),
+    ("summary.task.grip_shear_m", "one pad ahead of the other, first held", 1000.0, "mm"),
     ("summary.task.min_clearance_m.", "min clearance (robot and box, every obstacle)", 100.0, "cm"),
     ("summary.task.loop_time_ms.p95", "loop time p95", 1.0, "ms"),
     ("summary.task.loop_time_ms.max", "loop time max", 1.0, "ms"),
