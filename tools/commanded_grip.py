@@ -14,7 +14,9 @@ scenario.resolved.yaml as `harmony run` loads it.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 import pandas as pd
@@ -54,6 +56,12 @@ def grip_widths(robot: Robot, steps: pd.DataFrame) -> pd.DataFrame:
     )
 
 
+def _fail(message: str) -> NoReturn:
+    """Bad input: one line, exit 2."""
+    print(f"error: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("run_dir", type=Path)
@@ -61,20 +69,22 @@ def main() -> None:
     parser.add_argument("--to", dest="end", type=float, default=np.inf, help="last time [s]")
     parser.add_argument("--every", type=int, default=1, help="every n-th control step")
     args = parser.parse_args()
+    if args.every < 1:
+        _fail(f"--every {args.every}: a number of control steps, 1 or more")
     missing = [n for n in ("steps.csv", "scenario.resolved.yaml") if not (args.run_dir / n).is_file()]
     if missing:
-        parser.error(f"{args.run_dir}: not a run directory (no {' or '.join(missing)})")
+        _fail(f"{args.run_dir}: not a run directory (no {' or '.join(missing)})")
     try:
         scenario = load_scenario(args.run_dir / "scenario.resolved.yaml")
         robot = robot_of(scenario, args.run_dir)  # as `harmony run RUN_DIR/scenario.resolved.yaml` resolves paths
     except ScenarioError as exc:
-        parser.error(str(exc))
+        _fail(str(exc))
     if len(robot.hand_names) != 2:
-        parser.error(f"{args.run_dir}: the robot has {len(robot.hand_names)} hands; a grip needs 2")
+        _fail(f"{args.run_dir}: the robot has {len(robot.hand_names)} hands; a grip needs 2")
     steps = pd.read_csv(args.run_dir / "steps.csv")
-    steps = steps[(steps.t >= args.start) & (steps.t <= args.end)].iloc[:: max(args.every, 1)]
+    steps = steps[(steps.t >= args.start) & (steps.t <= args.end)].iloc[:: args.every]
     if steps.empty:
-        parser.error(f"{args.run_dir}: no control step between --from {args.start} and --to {args.end}")
+        _fail(f"{args.run_dir}: no control step between --from {args.start} and --to {args.end}")
     print(grip_widths(robot, steps).round(2).to_string(index=False))
 
 

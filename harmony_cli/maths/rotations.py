@@ -25,13 +25,11 @@ def heading_of(rotations: np.ndarray, home_rotations: np.ndarray) -> float:
     return float(np.arctan2(relative[:, 1, 0].sum(), relative[:, 0, 0].sum()))
 
 
-def off_square_deg(quaternion: np.ndarray, line: np.ndarray) -> float:
-    """[deg] in plan view, how far a box (orientation `quaternion` x, y, z, w) is turned from lying square across
+def off_square_deg(box_x: np.ndarray, line: np.ndarray) -> float:
+    """[deg] in plan view, how far a box (its x axis `box_x` (3,) in the world) is turned from lying square across
     the direction `line` (3,): the angle between the line and the nearest of the box's side axes, in [0, 45]. With
     the pads' normal as the line, 0: the pads lie flat on two opposite faces; above it they hold it on its edges."""
-    x, y, z, w = quaternion
-    axis = np.array([1 - 2 * (y * y + z * z), 2 * (x * y + w * z)])  # the box's x axis, plan view
-    angle = np.degrees(np.arctan2(axis[1], axis[0]) - np.arctan2(line[1], line[0])) % 90.0
+    angle = np.degrees(np.arctan2(box_x[1], box_x[0]) - np.arctan2(line[1], line[0])) % 90.0
     return float(min(angle, 90.0 - angle))
 
 

@@ -112,9 +112,8 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
 def first_held(steps: pd.DataFrame, column: str) -> float | None:
     """A column's value when the box was first held (the lift's start: squeezed, not yet lifted): the grasp as
     made; None if it never was held (or the run logs no such column)."""
-    if column not in steps or "holding" not in steps or not steps["holding"].astype(bool).any():
-        return None
-    return float(steps[column][steps["holding"].astype(bool)].iloc[0])
+    held = steps["holding"].astype(bool) if "holding" in steps else pd.Series(False, index=steps.index)
+    return float(steps[column][held].iloc[0]) if column in steps and held.any() else None
 
 
 def force_outcome(steps: pd.DataFrame, hands: list[str]) -> dict | None:
