@@ -70,3 +70,19 @@ def test_a_carry_higher_than_either_arm_reaches_is_refused_before_the_robot_move
     why = check.unreachable(load_scenario(path, high))
     assert why is not None and why.startswith("phase carry: the left hand's target [6.1, 0.154, 1.9] and the"), why
     assert why.endswith("out of reach from every collision-free base pose")
+
+
+def test_a_place_amid_a_table_wider_than_the_arms_reach_is_refused_for_the_trunk_not_for_the_footprint():
+    from pathlib import Path
+
+    from harmony_cli.scenario import load_scenario
+    from harmony_cli.tasks.scene_check import SceneCheck
+
+    path = Path(__file__).parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml"
+    check = SceneCheck(path.parent)
+    # the drop table 4 m square, centred on the place: the base fits between its legs, under its top; the waist
+    # does not, and from outside the top the place is farther than either hand reaches (1.1-1.2 m)
+    wide = ["world.tables.drop_table.top=[4.0,4.0]", "world.tables.drop_table.position=[6.1,0.0]"]
+    assert check.unreachable(load_scenario(path, [*wide, "robot.trunk=[]"])) is None
+    why = check.unreachable(load_scenario(path, wide))
+    assert why is not None and why.startswith("phase carry:") and why.endswith("collision-free base pose"), why

@@ -1,18 +1,24 @@
 """Where the base stands when the written stance is blocked (tasks/stance_pose.py), checked with Pinocchio's
-kinematics and plain plan-view geometry."""
+kinematics, plain plan-view geometry and PyBullet's collision shapes."""
 
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+import pybullet
+from pybullet_utils.bullet_client import BulletClient
 
 from harmony_cli.scenario import load_scenario, robot_of
+from harmony_cli.sim.world import World
 from harmony_cli.tasks.stance_pose import POSITION_TOL, stance_pose
 from harmony_cli.tasks.two_stage import TaskReferences
 
 PAPER = Path(__file__).parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml"
 # the cylinder just west of the drop table: the base, behind the hands as written for the place, would be in it
-BLOCKED = ["world.obstacles.cylinder.position=[4.75,0.2,1.0]"]
+BLOCKED = ["world.obstacles.cylinder.position=[4.5,0.2,1.0]"]
+# 0.25 m nearer the table: the base fits between the cylinder's margin and the table only under the table's top,
+# with the robot's waist inside it
+UNDER_TOP = ["world.obstacles.cylinder.position=[4.75,0.2,1.0]"]
 PLACE = ("carry", "approach_drop", "lower", "release", "open")
 
 
@@ -42,6 +48,68 @@ def test_a_blocked_place_gets_a_pose_whose_hands_pinocchio_puts_on_the_targets_a
         centre = base[:2] + [c * x - s * y, s * x + c * y]
         gap = np.linalg.norm(centre - np.asarray(cylinder.position[:2])) - r - cylinder.size[0] / 2
         assert gap >= cylinder.margin - 1e-4  # the soft-min over the circles is below their min: a margin to spare
+    assert _trunk_gap(scenario, base) >= -1e-6
+
+
+def _trunk_gap(scenario, base) -> float:
+    """[m] how far the robot's trunk circles stay out from under the drop table's top (plan view; < 0: under)."""
+    table = next(t for t in scenario.world.tables if t.name == "drop_table")
+    c, s = np.cos(base[2]), np.sin(base[2])
+    yaw = np.deg2rad(table.yaw_deg)
+    gaps = []
+    for x, y, r, bottom, top in scenario.robot.trunk:
+        if not (bottom < table.height and top > table.height - table.thickness):
+            continue
+        d = base[:2] + [c * x - s * y, s * x + c * y] - np.asarray(table.position)
+        local = np.abs([np.cos(yaw) * d[0] + np.sin(yaw) * d[1], -np.sin(yaw) * d[0] + np.cos(yaw) * d[1]])
+        outside = np.maximum(local - np.asarray(table.top) / 2, 0.0)
+        depth = min(0.0, (local - np.asarray(table.top) / 2).max())  # inside: minus the way out
+        gaps.append((np.linalg.norm(outside) if outside.any() else depth) - r)
+    return min(gaps)
+
+
+def test_a_place_reached_only_with_the_waist_under_the_table_s_top_gets_no_pose_no_route_point_and_a_warning():
+    scenario = load_scenario(PAPER, UNDER_TOP)
+    robot = robot_of(scenario, PAPER.parent)
+    targets, headings = _place(scenario, robot)
+    assert stance_pose(scenario, robot, targets, headings) is None
+    references = TaskReferences(robot, scenario)
+    assert references.vias == {}
+    assert [w for w in references.warnings if w.startswith("stance: no base pose found")] == [
+        "stance: no base pose found, clear of the scene (the trunk out from under table tops), from which the hands "
+        "reach phases carry to retreat at the box's goal (8 headings tried; not a proof that none exists): the "
+        "robot may not get there"
+    ]
+    # without the trunk the pose found stands the base under the table, its waist inside the top
+    bare = load_scenario(PAPER, [*UNDER_TOP, "robot.trunk=[]"])
+    base, _ = stance_pose(bare, robot, targets, headings)
+    assert _trunk_gap(scenario, base) < -0.1
+
+
+def _trunk_contact_in_pybullet(scenario, robot, joints) -> float:
+    """[m] PyBullet's closest distance between the drop table's top and the robot's links that are not arms
+    (the base, waist, chest, head) with the joints at `joints`; < 0: they overlap."""
+    client = BulletClient(connection_mode=pybullet.DIRECT)
+    top = World(client, scenario.world).tables["drop_table"][0]
+    body = client.loadURDF(str(robot.urdf), useFixedBase=True)
+    names = {client.getJointInfo(body, i)[1].decode(): i for i in range(client.getNumJoints(body))}
+    for j, name in enumerate(robot.joint_names):
+        client.resetJointState(body, names[name], joints[j])
+    trunk = [i for i in range(client.getNumJoints(body)) if "ARM" not in client.getJointInfo(body, i)[12].decode()]
+    gaps = [p[8] for i in trunk for p in client.getClosestPoints(body, top, 0.5, linkIndexA=i)]
+    client.disconnect()
+    return min(gaps, default=0.5)
+
+
+def test_pybullet_sees_the_waist_inside_the_table_top_at_the_trunkless_pose_and_nothing_at_the_trunk_aware_one():
+    robot = robot_of(load_scenario(PAPER), PAPER.parent)
+    bare = load_scenario(PAPER, [*UNDER_TOP, "robot.trunk=[]"])
+    targets, headings = _place(bare, robot)
+    _, joints = stance_pose(bare, robot, targets, headings)
+    assert min(_trunk_contact_in_pybullet(bare, robot, q) for q in joints) < -0.05
+    blocked = load_scenario(PAPER, BLOCKED)
+    _, joints = stance_pose(blocked, robot, *_place(blocked, robot))
+    assert min(_trunk_contact_in_pybullet(blocked, robot, q) for q in joints) > 0.0
 
 
 def test_only_a_blocked_stance_routes_its_first_phase_through_a_pose_that_clears():
@@ -50,7 +118,7 @@ def test_only_a_blocked_stance_routes_its_first_phase_through_a_pose_that_clears
     scenario = load_scenario(PAPER, BLOCKED)
     references = TaskReferences(robot_of(scenario, PAPER.parent), scenario)
     assert [scenario.task.phases[i].name for i in references.vias] == ["carry"]
-    assert np.linalg.norm(references.vias[5] - [4.75, 0.2]) > 0.6 + 0.3  # outside the cylinder and its margin
+    assert np.linalg.norm(references.vias[5] - [4.5, 0.2]) > 0.6 + 0.3  # outside the cylinder and its margin
 
 
 def test_a_blocked_grip_reached_through_an_approach_phase_gets_no_route_point():

@@ -82,6 +82,12 @@ def table_shape(spec: TableSpec) -> Shape:
     return Shape("box", np.array([*spec.position, spec.height / 2]), np.deg2rad(spec.yaw_deg), half)
 
 
+def table_top(spec: TableSpec) -> Shape:
+    """A table's top, the slab a robot's trunk (not its lower base) must stay out from under."""
+    half = np.array([spec.top[0] / 2, spec.top[1] / 2, spec.thickness / 2])
+    return Shape("box", np.array([*spec.position, spec.height - half[2]]), np.deg2rad(spec.yaw_deg), half)
+
+
 def table_legs(spec: TableSpec) -> list[Shape]:
     """The four legs of a table (TableSpec): what a base (lower than the top) must stay out of; it may pass
     under the top."""

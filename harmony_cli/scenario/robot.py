@@ -89,6 +89,12 @@ class RobotSpec(Strict):
         "arms the URDF's efforts cannot hold (PR2: its shoulders are balanced by springs the URDF does not model)",
     )
     base_margin: float = Field(0.03, ge=0, description="clearance the footprint keeps from table legs [m]")
+    trunk: list[tuple[float, float, float, float, float]] = Field(
+        [],
+        description="circles [x, y, radius, bottom, top] in the base frame covering the body the base carries "
+        "(EVA: its waist and chest), from `bottom` to `top` above the floor [m]: kept out from under a table's "
+        "top at their height, which the footprint may pass under; none: only the footprint is kept clear",
+    )
 
     @model_validator(mode="before")
     @classmethod
@@ -112,6 +118,14 @@ class RobotSpec(Strict):
         if len(frames) < 2:
             raise ValueError(f"end_effectors: {sorted(frames)}: a dual-arm robot needs two hands (or tools)")
         return self
+
+    @field_validator("trunk")
+    @classmethod
+    def _trunk_circles(cls, circles: list) -> list:
+        for x, y, radius, bottom, top in circles:
+            if radius <= 0 or bottom >= top:
+                raise ValueError(f"{[x, y, radius, bottom, top]}: a circle needs radius > 0 and bottom < top")
+        return circles
 
     @field_validator("preset")
     @classmethod

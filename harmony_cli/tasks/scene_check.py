@@ -1,7 +1,8 @@
 """Impossible scenes, refused before they run: an obstacle overlapping a table, the box (where it starts or at its
 goal) or the robot's start (within the obstacle's margin, which the whole-body MPC must keep); a hand target that
 no collision-free base pose brings within the arm's reach, or none the base can drive to from its start
-(passage.py).
+(passage.py). Collision-free: the footprint clear of obstacles and table legs (it may pass under a table's top),
+the trunk (robot.trunk) out from under the tops at its height.
 
 Geometry is planar where the bodies are vertical prisms (tables, boxes, cylinders, the base footprint) and exact
 for them; heights are compared as intervals. The reach test is a necessary condition only (the arm's links laid
@@ -9,11 +10,12 @@ end to end from its first moving joint): a scene it passes may still be beyond w
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-from harmony_cli.maths.shapes import Shape, obstacle_shape, table_legs, table_shape, table_top_pose
+from harmony_cli.maths.shapes import Shape, obstacle_shape, table_legs, table_shape, table_top, table_top_pose
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.reach import hand_radius
 from harmony_cli.scenario import Scenario, robot_of
@@ -103,6 +105,7 @@ class SceneCheck:
         if scenario.task is None:
             return None
         blocked, robot, spec = _static_outlines(scenario), self.robot(scenario), scenario.robot
+        trunk = trunk_under_tops(scenario)
         phases = []
         for phase in scenario.task.phases:
             written = [
@@ -119,7 +122,7 @@ class SceneCheck:
             if not targets:
                 continue
             radii = [hand_radius(robot, h, float(t[2])) for h, _, t in targets]
-            found = _base_place(radii, np.array([t for *_, t in targets]), blocked, circles, passage)
+            found = _base_place(radii, np.array([t for *_, t in targets]), blocked, circles, passage, trunk)
             where = " and ".join(f"the {label} hand's target {np.round(t, 3).tolist()}" for _, label, t in targets)
             if found == "out of reach":
                 return f"phase {name}: {where} out of reach from every collision-free base pose"
@@ -134,12 +137,18 @@ class SceneCheck:
 
 
 def _base_place(
-    radii: list[float | None], targets: np.ndarray, blocked: list, circles: np.ndarray, passage: Passage | None
+    radii: list[float | None],
+    targets: np.ndarray,
+    blocked: list,
+    circles: np.ndarray,
+    passage: Passage | None,
+    trunk: Sequence[tuple[np.ndarray, Shape]] = (),
 ) -> str:
-    """Whether some base pose (a grid of positions x BASE_YAWS headings) has its footprint clear of `blocked`,
-    every target (n, 3) within its hand's plan-view `radii` of the base's origin and the `passage` to it from the
-    start: "ok", "out of reach" or "no passage". Conservative (a necessary condition): the radii grow by REACH_SLACK
-    and the margins shrink by how far a true pose can be from the nearest one tried."""
+    """Whether some base pose (a grid of positions x BASE_YAWS headings) has its footprint clear of `blocked` and
+    its `trunk` circles out from under the table tops at their height, every target (n, 3) within its hand's
+    plan-view `radii` of the base's origin and the `passage` to it from the start: "ok", "out of reach" or "no
+    passage". Conservative (a necessary condition): the radii grow by REACH_SLACK and the margins shrink by how far
+    a true pose can be from the nearest one tried."""
     if any(r is None for r in radii):
         return "out of reach"
     reach = np.array(radii, dtype=float) + REACH_SLACK + BASE_STEP / np.sqrt(2)
@@ -164,12 +173,29 @@ def _base_place(
         clear = np.ones(len(centres), dtype=bool)
         for shape, margin in near_target:
             clear &= planar_distance(shape, centres) - np.tile(circles[:, 2] + give, len(near)) >= margin
-        places = near[clear.reshape(len(near), len(circles)).all(axis=1)]
+        fits = clear.reshape(len(near), len(circles)).all(axis=1)
+        for circle, top in trunk:
+            centre = near + circle[:2] @ turn
+            give_trunk = BASE_STEP / np.sqrt(2) + np.hypot(*circle[:2]) * np.sin(np.pi / BASE_YAWS)
+            fits &= planar_distance(top, centre) >= circle[2] - give_trunk
+        places = near[fits]
         if len(places):
             if passage is None or passage.reaches(places):
                 return "ok"
             found = "no passage"
     return found
+
+
+def trunk_under_tops(scenario: Scenario) -> list[tuple[np.ndarray, Shape]]:
+    """Each trunk circle (x, y, radius in the base frame) with the outline of each table top at its height
+    (robot.trunk), as a prism as tall as the table (plan-view distances: its slab's faces are not the nearest)."""
+    tops = [(table_top(t), table_shape(t)) for t in scenario.world.tables]
+    return [
+        (np.array(circle[:3]), Shape(top.kind, outline.centre, top.yaw, np.r_[top.half[:2], outline.half[2]]))
+        for circle in scenario.robot.trunk
+        for top, outline in tops
+        if _heights_meet((circle[3], circle[4]), _z_range(top))
+    ]
 
 
 def _footprint(circles, pose) -> list[Shape]:

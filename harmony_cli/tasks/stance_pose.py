@@ -9,6 +9,10 @@ lets a hand sag or the grip twist rather than walk the base round to a pose that
 base (seeded at headings all round the targets); the planner routes the hands through the pose's position
 (two_stage.py), so the base, which follows them, arrives on the side where it can stand.
 
+The base's footprint may pass under a table's top (between its legs); the body it carries may not (robot.trunk):
+without that row the pose found for a place blocked from its front stood the base under the table from behind,
+the waist inside the top, and the carry drove round the table to get there.
+
 One NLP (IPOPT): the base shared, a joint vector per phase, the arms' distance from home as the cost. Each start
 is a local solve: a pose found is one that works; none found is not a proof that none exists."""
 
@@ -19,11 +23,13 @@ import numpy as np
 
 from harmony_cli.capture import captured_output
 from harmony_cli.maths.rotations import rot_z
+from harmony_cli.maths.shapes import symbolic_distance
 from harmony_cli.mpc.clearance import clearance_margins, scene_clearances
 from harmony_cli.mpc.knot_params import KnotLayout
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.reach import arm_joints, home_at_origin
 from harmony_cli.scenario import Scenario
+from harmony_cli.tasks.scene_check import trunk_under_tops
 
 TURNS_DEG = (0, 45, -45, 90, -90, 135, -135, 180)  # base headings tried, from the written one
 POSITION_TOL = 0.01  # [m] each hand from its target
@@ -45,7 +51,7 @@ def stance_pose(
     layout = KnotLayout(len(robot.end_effectors), len(clearances))
     ref = np.r_[np.zeros(layout.hands_end), poses]
     footprint = tuple((x, y, r) for x, y, r in scenario.robot.footprint) if clearances else ()
-    variables, rows, cost = [], [], 0
+    variables, rows, cost = [], _trunk_rows(scenario, base), 0
     for pair, heading in zip(targets, headings):
         x = cs.SX.sym("x", len(free))
         q = cs.SX(home)
@@ -82,6 +88,18 @@ def stance_pose(
             joints[:, list(robot.base_joints)] = x[:3]
             return x[:3], joints
     return None
+
+
+def _trunk_rows(scenario: Scenario, base: cs.SX) -> list:
+    """Each trunk circle out from under each table top at its height (robot.trunk): the footprint's clearance rows
+    keep only the table legs, which a base lower than the top passes between."""
+    c, s = cs.cos(base[2]), cs.sin(base[2])
+    rows = []
+    for (x, y, radius), top in trunk_under_tops(scenario):
+        point = cs.vertcat(base[0] + c * x - s * y, base[1] + s * x + c * y, top.centre[2])
+        distance = symbolic_distance(top.kind, top.half, top.centre, top.yaw, point, planar=True)
+        rows.append((distance - radius, 0.0, np.inf))
+    return rows
 
 
 def _behind(robot: Robot, home: np.ndarray) -> np.ndarray:

@@ -25,7 +25,7 @@ from harmony_cli.tasks.passage import narrowest_width
 from harmony_cli.tasks.scene_check import target_position
 from harmony_cli.tasks.schedule import ActivePhase, Schedule
 from harmony_cli.tasks.stance import Stance, stances
-from harmony_cli.tasks.stance_pose import stance_pose
+from harmony_cli.tasks.stance_pose import TURNS_DEG, stance_pose
 from harmony_cli.tasks.targets import HandTargets
 
 if TYPE_CHECKING:
@@ -62,7 +62,8 @@ class TaskReferences:
         )
         self.warnings += self._goals_inside(robot.hand_names)
         self.stances = _stances(scenario, robot, hands, offset, obstacles)
-        self.vias = _vias(scenario, robot, self.stances, offset)  # phase index -> (2,): see _vias
+        self.vias, unplaced = _vias(scenario, robot, self.stances, offset)  # phase index -> (2,): see _vias
+        self.warnings += [_unplaced(stance) for stance in unplaced]
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
         box = scenario.world.box
         self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
@@ -242,14 +243,17 @@ def _stances(
 NEAR = 0.2  # [m] a phase works at its group's pivot when its hands' midpoint is this near it (plan view)
 
 
-def _vias(scenario: Scenario, robot: Robot, found: list[Stance], heading_offset: float) -> dict[int, np.ndarray]:
+def _vias(
+    scenario: Scenario, robot: Robot, found: list[Stance], heading_offset: float
+) -> tuple[dict[int, np.ndarray], list[Stance]]:
     """For each group whose written stance is blocked (a warning), a base pose that works at its pivot
     (stance_pose.py: clear of the scene, the hands on the group's targets there) and the first phase's index: that
     phase's first plan routes the hands through the pose's position, so they come to the pivot from where the base
-    can stand and the base, which follows them, arrives on that side of whatever blocks the written stance."""
+    can stand and the base, which follows them, arrives on that side of whatever blocks the written stance. Also
+    the groups for which no pose was found."""
     assert scenario.task is not None
     names = [p.name for p in scenario.task.phases]
-    vias = {}
+    vias, unplaced = {}, []
     for stance in found:
         if stance.warning() is None:
             continue
@@ -262,4 +266,16 @@ def _vias(scenario: Scenario, robot: Robot, found: list[Stance], heading_offset:
         pose = stance_pose(scenario, robot, pairs[at], np.arctan2(d[:, 1], d[:, 0]) + heading_offset)
         if pose is not None:
             vias[names.index(stance.phases[0])] = pose[0][:2]
-    return vias
+        else:
+            unplaced.append(stance)
+    return vias, unplaced
+
+
+def _unplaced(stance: Stance) -> str:
+    """The warning for a blocked stance for which no base pose was found."""
+    where = stance.phases[0] if len(stance.phases) == 1 else f"{stance.phases[0]} to {stance.phases[-1]}"
+    return (
+        f"stance: no base pose found, clear of the scene (the trunk out from under table tops), from which the "
+        f"hands reach phases {where} at {stance.pivot} ({len(TURNS_DEG)} headings tried; not a proof that none "
+        f"exists): the robot may not get there"
+    )
