@@ -187,11 +187,11 @@ def _base_place(
 
 
 def trunk_under_tops(scenario: Scenario) -> list[tuple[np.ndarray, Shape]]:
-    """Each trunk circle (x, y, radius in the base frame) with the outline of each table top at its height
-    (robot.trunk), as a prism as tall as the table (plan-view distances: its slab's faces are not the nearest)."""
+    """Each trunk circle (x, y, radius in the base frame) with the outline of each table whose top is at its height
+    (robot.trunk): the block to the floor, so that distances to it are plan-view ones, not to the slab's faces."""
     tops = [(table_top(t), table_shape(t)) for t in scenario.world.tables]
     return [
-        (np.array(circle[:3]), Shape(top.kind, outline.centre, top.yaw, np.r_[top.half[:2], outline.half[2]]))
+        (np.array(circle[:3]), outline)
         for circle in scenario.robot.trunk
         for top, outline in tops
         if _heights_meet((circle[3], circle[4]), _z_range(top))
