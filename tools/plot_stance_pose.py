@@ -23,9 +23,8 @@ from matplotlib.patches import Circle, Rectangle  # noqa: E402
 
 from harmony_cli.maths.shapes import table_legs  # noqa: E402
 from harmony_cli.scenario import ScenarioError, load_scenario, robot_of  # noqa: E402
-from harmony_cli.tasks.scene_check import target_position  # noqa: E402
 from harmony_cli.tasks.stance_pose import stance_pose  # noqa: E402
-from harmony_cli.tasks.two_stage import NEAR, TaskReferences  # noqa: E402
+from harmony_cli.tasks.two_stage import TaskReferences, stance_targets  # noqa: E402
 
 
 def _rectangle(centre, half, yaw_deg, **style) -> Rectangle:
@@ -69,18 +68,16 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(2)
     robot = robot_of(scenario, args.scenario.parent)
     references = TaskReferences(robot, scenario)
-    names = [p.name for p in scenario.task.phases]
     fig, ax = plt.subplots(figsize=(7, 6))
     _scene(ax, scenario)
     blocked = [s for s in references.stances if s.warning() is not None]
     if not blocked:
         print(f"{args.scenario}: no blocked stance (no stance warning); the figure shows the scene only")
     for stance in blocked:
-        phases = [scenario.task.phases[names.index(n)] for n in stance.phases]
-        pairs = np.array([[target_position(p.hands[h], scenario) for h in robot.hand_names] for p in phases])
-        pairs = pairs[np.linalg.norm(pairs.mean(axis=1)[:, :2] - stance.pivot_position[:2], axis=1) <= NEAR]
-        d = pairs[:, 1] - pairs[:, 0]
-        headings = np.arctan2(d[:, 1], d[:, 0]) + references.planner.heading_offset
+        at_pivot = stance_targets(scenario, robot, stance, references.planner.heading_offset)
+        if at_pivot is None:  # reached through an approach phase: no pose is searched for it (two_stage.py)
+            continue
+        pairs, headings = at_pivot
         ax.plot(*pairs[:, :, :2].reshape(-1, 2).T, "k+", label=f"hand targets at {stance.pivot}")
         for which, colour, label in ((bare, "tab:orange", "footprint alone"), (scenario, "tab:blue", "with trunk")):
             pose = stance_pose(which, robot, pairs, headings)

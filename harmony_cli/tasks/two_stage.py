@@ -63,7 +63,7 @@ class TaskReferences:
         self.warnings += self._goals_inside(robot.hand_names)
         self.stances = _stances(scenario, robot, hands, offset, obstacles)
         self.vias, unplaced = _vias(scenario, robot, self.stances, offset)  # phase index -> (2,): see _vias
-        self.warnings += [_unplaced(stance) for stance in unplaced]
+        self.warnings += [_unplaced(stance, bool(scenario.robot.trunk)) for stance in unplaced]
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
         box = scenario.world.box
         self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
@@ -257,13 +257,10 @@ def _vias(
     for stance in found:
         if stance.warning() is None:
             continue
-        phases = [scenario.task.phases[names.index(n)] for n in stance.phases]
-        pairs = np.array([[target_position(p.hands[h], scenario) for h in robot.hand_names] for p in phases])
-        at = np.linalg.norm(pairs.mean(axis=1)[:, :2] - stance.pivot_position[:2], axis=1) <= NEAR
-        if not at[0]:  # the group's way in is a phase of its own (an approach): its pose is not the one found
+        at_pivot = stance_targets(scenario, robot, stance, heading_offset)
+        if at_pivot is None:  # the group's way in is a phase of its own (an approach): its pose is not the one found
             continue
-        d = pairs[at, 1] - pairs[at, 0]
-        pose = stance_pose(scenario, robot, pairs[at], np.arctan2(d[:, 1], d[:, 0]) + heading_offset)
+        pose = stance_pose(scenario, robot, *at_pivot)
         if pose is not None:
             vias[names.index(stance.phases[0])] = pose[0][:2]
         else:
@@ -271,11 +268,28 @@ def _vias(
     return vias, unplaced
 
 
-def _unplaced(stance: Stance) -> str:
-    """The warning for a blocked stance for which no base pose was found."""
+def stance_targets(
+    scenario: Scenario, robot: Robot, stance: Stance, heading_offset: float
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The hand targets (phases, hands, 3) of a stance's phases that work at its pivot (within NEAR of it) and the
+    planner's headings there (phases,), what stance_pose asks for; None when the group's first phase is not at the
+    pivot (an approach)."""
+    assert scenario.task is not None
+    names = [p.name for p in scenario.task.phases]
+    phases = [scenario.task.phases[names.index(n)] for n in stance.phases]
+    pairs = np.array([[target_position(p.hands[h], scenario) for h in robot.hand_names] for p in phases])
+    at = np.linalg.norm(pairs.mean(axis=1)[:, :2] - stance.pivot_position[:2], axis=1) <= NEAR
+    if not at[0]:
+        return None
+    d = pairs[at, 1] - pairs[at, 0]
+    return pairs[at], np.arctan2(d[:, 1], d[:, 0]) + heading_offset
+
+
+def _unplaced(stance: Stance, trunk: bool) -> str:
+    """The warning for a blocked stance for which no base pose was found (`trunk`: the robot has one)."""
     where = stance.phases[0] if len(stance.phases) == 1 else f"{stance.phases[0]} to {stance.phases[-1]}"
+    clear = "clear of the scene (the trunk out from under table tops)" if trunk else "clear of the scene"
     return (
-        f"stance: no base pose found, clear of the scene (the trunk out from under table tops), from which the "
-        f"hands reach phases {where} at {stance.pivot} ({len(TURNS_DEG)} headings tried; not a proof that none "
-        f"exists): the robot may not get there"
+        f"stance: no base pose found, {clear}, from which the hands reach phases {where} at {stance.pivot} "
+        f"({len(TURNS_DEG)} headings tried; not a proof that none exists): the robot may not get there"
     )
