@@ -38,11 +38,16 @@ def test_a_robot_other_than_eva_runs_the_two_stage_loop_and_turns_to_its_goal(tw
     assert (twin_run / "top_down.png").exists()
 
 
-def test_the_box_is_lifted_by_friction_alone_and_never_dropped(tmp_path):
-    out = tmp_path / "run"
+@pytest.fixture(scope="module")
+def lift_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("lift") / "run"
     result = runner.invoke(app, ["run", str(BOX), "--out", str(out), "--quiet"])
     assert result.exit_code == 0, result.output
-    steps = pd.read_csv(out / "steps.csv")
+    return out
+
+
+def test_the_box_is_lifted_by_friction_alone_and_never_dropped(lift_run):
+    steps = pd.read_csv(lift_run / "steps.csv")
     assert not steps["dropped"].any()
     held = steps[steps["holding"]]
     assert held["box_touches_robot"].all()
@@ -55,6 +60,18 @@ def test_the_box_is_lifted_by_friction_alone_and_never_dropped(tmp_path):
         assert len(settled) > 100 and np.sqrt(np.mean(error**2)) < 3.0
         # no chatter at half the control rate (raw force into the admittance: p95 step-to-step change 14 N)
         assert np.percentile(np.abs(np.diff(settled[f"{hand}_force_normal_N"])), 95) < 1.0
+
+
+def test_the_pads_friction_carries_the_lifted_box_weight_as_statics_says(lift_run):
+    # PyBullet's contact forces against statics: held still at the lift's end, the pads' friction forces together
+    # carry the box's weight, sum over pads of friction used x mu x normal force = m g (mu = 0.8 x 1.0, m = 0.8 kg)
+    steps = pd.read_csv(lift_run / "steps.csv")
+    still = steps[steps["t"] >= steps["t"].iloc[-1] - 0.5]
+    carried = sum(still[f"{h}_friction_used"] * 0.8 * still[f"{h}_contact_N"] for h in ("left", "right"))
+    assert np.allclose(carried, 0.8 * 9.81, rtol=0.05)
+    for hand in ("left", "right"):
+        assert (still[f"{hand}_contact_points"] >= 3).all()  # flat on the face, not on an edge
+        assert still[f"{hand}_contact_normal_off_face_deg"].max() < 1.0  # normals along the box's face
 
 
 def test_video_is_written_headless_with_one_frame_per_tenth_of_a_second(tmp_path):

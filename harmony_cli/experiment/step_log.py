@@ -99,6 +99,9 @@ class _HandColumns(NamedTuple):
     force_seen: str
     force: tuple[str, ...]
     contact: str
+    contact_points: str
+    friction_used: str
+    normal_off_face: str
 
 
 @cache
@@ -114,6 +117,9 @@ def _hand_columns(hand: str) -> _HandColumns:
         force_seen=f"{hand}_force_seen_N",
         force=tuple(f"{hand}_force_{a}_N" for a in "xyz"),
         contact=f"{hand}_contact_N",
+        contact_points=f"{hand}_contact_points",
+        friction_used=f"{hand}_friction_used",
+        normal_off_face=f"{hand}_contact_normal_off_face_deg",
     )
 
 
@@ -142,3 +148,7 @@ def _add_hands(
         row |= zip(c.force, obs.wrenches[h, :3])  # grasp frame
         if truth.pad_contact_N is not None:
             row[c.contact] = float(truth.pad_contact_N[h])  # PyBullet's pad-box contact normal force
+        if truth.pad_contacts is not None:  # sim/contacts.py
+            row[c.contact_points] = int(truth.pad_contacts.points[h])
+            row[c.friction_used] = float(truth.pad_contacts.friction_used[h])
+            row[c.normal_off_face] = float(truth.pad_contacts.normal_off_face_deg[h])

@@ -19,6 +19,8 @@ FELL_BELOW = 0.05  # [m] a box whose centre sinks this far below resting on the 
 # (issue 14) grasps were clean (within 0.04 deg and 0.16 mm) or sheared by 8 mm or more (0.04-9 deg off square).
 OFF_SQUARE_DEG = 0.5
 SHEAR_M = 0.005
+FRICTION_WINDOW_S = 1.5  # [s] before a drop (flagged once the contact has been lost for a moment; sim/contacts.py)
+NORMAL_OFF_FACE_DEG = 5.0  # a contact normal further off the box's faces than this is said
 
 
 def fell_at(steps: pd.DataFrame, table_tops: list[float], box_height: float) -> float | None:
@@ -65,7 +67,28 @@ def _dropped(task: dict, steps: pd.DataFrame) -> str:
         grasp.append(f"with one pad {1e3 * shear:.0f} mm ahead of the other")
     if parts and grasp:
         parts.append(f"it was gripped {' and '.join(grasp)}")
+    friction = _friction_before(steps, _dropped_s(task, steps))
+    if parts and friction:
+        parts.append(friction)
     return "; ".join(parts)
+
+
+def _friction_before(steps: pd.DataFrame, drop_s: float | None) -> str | None:
+    """The pads' largest use of their friction in the moments before a drop and, when PyBullet's contact normals
+    lay off the box's faces then, how far (sim/contacts.py); None without contact columns."""
+    used_columns = [c for c in steps.columns if c.endswith("_friction_used")]
+    if drop_s is None or not used_columns:
+        return None
+    before = steps[(steps["t"] >= drop_s - FRICTION_WINDOW_S) & (steps["t"] <= drop_s)]
+    used = float(np.nanmax(before[used_columns].to_numpy(float), initial=-np.inf))
+    if not np.isfinite(used):
+        return None
+    text = f"the pads used up to {100 * min(used, 1.0):.0f} % of their friction in the {FRICTION_WINDOW_S:g} s before"
+    off_columns = [c for c in steps.columns if c.endswith("_contact_normal_off_face_deg")]
+    off = float(np.nanmax(before[off_columns].to_numpy(float), initial=-np.inf))
+    if off > NORMAL_OFF_FACE_DEG:
+        text += f", PyBullet's contact normals up to {off:.0f} deg off the box's faces"
+    return text
 
 
 def _dropped_s(task: dict, steps: pd.DataFrame) -> float | None:

@@ -14,6 +14,7 @@ from harmony_cli.capture import captured_output
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.observation import Observation
 from harmony_cli.sim import PYBULLET_BANNER
+from harmony_cli.sim.contacts import PadContacts, pad_contacts
 from harmony_cli.sim.pushes import Pushes
 from harmony_cli.sim.world import World
 from harmony_cli.sim.wrench import WristSensors, rotation_matrices
@@ -34,6 +35,7 @@ class Truth:
     box_pose: np.ndarray | None  # centre and quaternion (x, y, z, w): replays draw it
     box_touches_robot: bool
     pad_contact_N: np.ndarray | None  # per hand, the box's contact normal force on the links below its wrist sensor
+    pad_contacts: PadContacts | None  # per hand, its contact points with the box, friction used, normals' angle
     push_N: dict[str, float]  # push_<name>_N, the force acting over the coming physics steps
     obstacle_positions: dict[str, np.ndarray]  # moving obstacles' centres as PyBullet has them
     clearance_robot_m: dict[str, float]  # per obstacle, the robot's true distance (PyBullet closest points)
@@ -41,6 +43,7 @@ class Truth:
 
 
 IDEAL_EFFORT = 1e4  # [N m | N] motor force limit of robot.actuators: ideal
+ROBOT_FRICTION = 1.0  # every robot link's lateral and spinning friction (Bullet multiplies the two bodies' values)
 SimulatorError = pybullet.error  # what every client call raises, e.g. once the physics server is gone
 
 
@@ -75,8 +78,8 @@ class Simulation:
         self.others = [i for i in range(robot.n_dof) if i not in robot.base_joints]
         for i, j in enumerate(self.joints):
             self.client.resetJointState(self.body, j, robot.home[i], 0.0)
-        for link in range(-1, self.client.getNumJoints(self.body)):  # Bullet multiplies the two bodies' values
-            self.client.changeDynamics(self.body, link, lateralFriction=1.0, spinningFriction=1.0)
+        for link in range(-1, self.client.getNumJoints(self.body)):
+            self.client.changeDynamics(self.body, link, lateralFriction=ROBOT_FRICTION, spinningFriction=ROBOT_FRICTION)
         self.wrists = WristSensors(self.client, self.body, [by_name[j] for j in robot.wrist_sensors], self.hand_links)
         if sim_spec.pad_stiffness is not None:  # compliant pads: what the force loop presses against is not rigid
             for link in {link for tool in self.wrists.tools for link in tool}:
@@ -84,6 +87,7 @@ class Simulation:
                     self.body, link, contactStiffness=sim_spec.pad_stiffness, contactDamping=sim_spec.pad_damping
                 )
         self.world = World(self.client, world) if world is not None else None
+        self.pad_friction = ROBOT_FRICTION * (world.box.friction if world is not None and world.box else 0.0)
         base_link = self.joints[robot.base_joints[2]]  # the link the base yaw joint moves
         self.pushes = Pushes(self.client, pushes, self.body, base_link, self.world, sim_spec.physics_dt)
         self.physics_steps = 0
@@ -117,7 +121,7 @@ class Simulation:
     def truth(self) -> Truth:
         """Ground truth for the logs (never for the controllers)."""
         world = self.world
-        centre, z_axis, pose, touching, contact = None, None, None, False, None
+        centre, z_axis, pose, touching, contact, pads = None, None, None, False, None, None
         positions: dict[str, np.ndarray] = {}
         robot: dict[str, float] = {}
         carried: dict[str, float] = {}
@@ -127,6 +131,10 @@ class Simulation:
                 pose = np.concatenate([centre, quaternion])
                 contacts = self.client.getContactPoints(bodyA=world.box, bodyB=self.body)  # whether, and where
                 touching, contact = len(contacts) > 0, self._pad_forces(contacts)
+                rotation = rotation_matrices([quaternion])[0]
+                pads = pad_contacts(
+                    contacts, self._hands_of_tool_link, len(self.hand_links), rotation, self.pad_friction
+                )
                 carried = world.clearances(world.box)
             positions = {name: world.obstacle_position(name) for name in world.moving}
             robot = world.clearances(self.body)
@@ -136,6 +144,7 @@ class Simulation:
             box_pose=pose,
             box_touches_robot=touching,
             pad_contact_N=contact,
+            pad_contacts=pads,
             push_N=self.pushes.magnitudes(self.time),
             obstacle_positions=positions,
             clearance_robot_m=robot,

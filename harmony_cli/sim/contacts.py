@@ -1,0 +1,59 @@
+"""The box's contact points with each hand's pads, summed up for the logs: how many, how much of their friction
+they use and how far PyBullet's contact normals lie from the box's faces.
+
+Why: a held box is lost when the pads' friction runs out, and the friction the pads spend pushing against each other
+(one pad ahead of the other turns their squeeze into a couple) is not there to carry the box's weight. And PyBullet
+keeps a contact point from step to step with the normal it was made with: when the pads and the box turn together,
+as in a carry's turn, the normals stay behind (by up to 33 deg with EVA's disc-shaped pads, sample 38 of the study)
+and their forces push the box sideways. A normal's angle from the nearest face of the box shows that."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+# PyBullet's getContactPoints fields
+LINK_B, NORMAL_ON_B, NORMAL_FORCE, FRICTION_1, FRICTION_DIR_1, FRICTION_2, FRICTION_DIR_2 = 4, 7, 9, 10, 11, 12, 13
+
+
+@dataclass(frozen=True)
+class PadContacts:
+    """Per hand: its pads' contact points with the box (count), |their summed friction force| over (friction
+    coefficient x their summed normal force) (1: sliding; nan without a pressing contact) and the largest angle
+    of one's normal from the normal of the box's nearest face [deg] (nan without contact)."""
+
+    points: np.ndarray
+    friction_used: np.ndarray
+    normal_off_face_deg: np.ndarray
+
+
+def pad_contacts(
+    contacts: Sequence[tuple],
+    hands_of_link: dict[int, list[int]],
+    n_hands: int,
+    box_rotation: np.ndarray,
+    friction: float,
+) -> PadContacts:
+    """`contacts`: PyBullet's contact points of the box (A) with the robot (B); `hands_of_link`: the hands whose
+    pads a robot link is (links of no hand are left out); `box_rotation` (3, 3): the box's orientation; `friction`:
+    the coefficient PyBullet uses between pad and box (the product of the two bodies' lateral frictions)."""
+    points = np.zeros(n_hands, dtype=int)
+    normal, force = np.zeros(n_hands), np.zeros((n_hands, 3))
+    off = np.full(n_hands, np.nan)
+    for point in contacts:
+        n = np.asarray(point[NORMAL_ON_B])
+        tangential = point[FRICTION_1] * np.asarray(point[FRICTION_DIR_1])
+        tangential = tangential + point[FRICTION_2] * np.asarray(point[FRICTION_DIR_2])
+        # a face's normal is a column of the box's rotation: the largest |cosine| is the nearest face
+        angle = float(np.degrees(np.arccos(min(1.0, float(np.abs(box_rotation.T @ n).max())))))
+        for h in hands_of_link.get(point[LINK_B], ()):
+            points[h] += 1
+            normal[h] += point[NORMAL_FORCE]
+            force[h] += tangential
+            off[h] = angle if np.isnan(off[h]) else max(off[h], angle)
+    pressing = normal > 0.0
+    used = np.full(n_hands, np.nan)
+    used[pressing] = np.linalg.norm(force[pressing], axis=1) / (friction * normal[pressing])
+    return PadContacts(points, used, off)
