@@ -117,6 +117,7 @@ SET_CASES = [
     ("unknown-top-key", ["colour=red"], ["colour", "unknown key", "'red'"]),
     ("unknown-nested-key", ["mpc.knotz=6"], ["mpc.knotz", "unknown key", "knots"]),
     ("preset-unknown", ["robot.preset=pr3"], ["robot", "'pr3'", "pr2"]),
+    ("urdf-without-preset", ["robot.urdf=robot.urdf"], ["robot", "end_effectors", "two hands", "set preset", "eva"]),
     ("actuators-unknown", ["robot.actuators=strong"], ["robot.actuators", "'strong'", "ideal"]),
     ("relative-to-missing", ["task.phases.0.hands.left.relative_to=shelf"], ["relative_to", "'shelf'", "table"]),
     ("push-body-missing", ["pushes.0.body=ghost"], ["pushes.0.body", "'ghost'", "pillar"]),

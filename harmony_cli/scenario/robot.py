@@ -116,7 +116,9 @@ class RobotSpec(Strict):
         frames = self.end_effectors | {hand: tool_link(hand) for hand in self.tools}
         object.__setattr__(self, "end_effectors", frames)
         if len(frames) < 2:
-            raise ValueError(f"end_effectors: {sorted(frames)}: a dual-arm robot needs two hands (or tools)")
+            # a urdf without a preset takes no preset's fields: say how to keep them (e.g. EVA's with a changed URDF)
+            keep = f"; or set preset ({', '.join(available_presets())}) to take its fields" if not self.preset else ""
+            raise ValueError(f"end_effectors: {sorted(frames)}: a dual-arm robot needs two hands (or tools){keep}")
         return self
 
     @field_validator("trunk")
