@@ -38,6 +38,7 @@ def test_a_normal_left_behind_by_a_turn_is_its_angle_off_the_box_face_and_fricti
     ]
     out = pad_contacts(contacts, {14: [0], 23: [1]}, 2, box, friction=0.8)
     assert out.points.tolist() == [2, 1]
+    assert out.normal_N.tolist() == [20.0, 20.0]
     assert np.allclose(out.normal_off_face_deg, [30.0, 0.0])
     # left: |(4, 0, 3) + (0, 0, 1)| / (0.8 x 20); right: 4 / (0.8 x 20)
     assert np.allclose(out.friction_used, [np.hypot(4.0, 4.0) / 16.0, 4.0 / 16.0])

@@ -20,11 +20,13 @@ LINK_B, NORMAL_ON_B, NORMAL_FORCE, FRICTION_1, FRICTION_DIR_1, FRICTION_2, FRICT
 
 @dataclass(frozen=True)
 class PadContacts:
-    """Per hand: its pads' contact points with the box (count), |their summed friction force| over (friction
-    coefficient x their summed normal force) (1: sliding; nan without a pressing contact) and the largest angle
-    of one's normal from the normal of the box's nearest face [deg] (nan without contact)."""
+    """Per hand: its pads' contact points with the box (count), their normal forces summed in PyBullet's order [N],
+    |their summed friction force| over (friction coefficient x that sum) (1: sliding; nan without a pressing
+    contact) and the largest angle of one's normal from the normal of the box's nearest face [deg] (nan without
+    contact)."""
 
     points: np.ndarray
+    normal_N: np.ndarray
     friction_used: np.ndarray
     normal_off_face_deg: np.ndarray
 
@@ -56,4 +58,4 @@ def pad_contacts(
     pressing = normal > 0.0
     used = np.full(n_hands, np.nan)
     used[pressing] = np.linalg.norm(force[pressing], axis=1) / (friction * normal[pressing])
-    return PadContacts(points, used, off)
+    return PadContacts(points, normal, used, off)

@@ -130,11 +130,11 @@ class Simulation:
                 centre, z_axis, quaternion = world.box_state()
                 pose = np.concatenate([centre, quaternion])
                 contacts = self.client.getContactPoints(bodyA=world.box, bodyB=self.body)  # whether, and where
-                touching, contact = len(contacts) > 0, self._pad_forces(contacts)
                 rotation = rotation_matrices([quaternion])[0]
                 pads = pad_contacts(
                     contacts, self._hands_of_tool_link, len(self.hand_links), rotation, self.pad_friction
                 )
+                touching, contact = len(contacts) > 0, pads.normal_N
                 carried = world.clearances(world.box)
             positions = {name: world.obstacle_position(name) for name in world.moving}
             robot = world.clearances(self.body)
@@ -186,21 +186,6 @@ class Simulation:
     @property
     def time(self) -> float:
         return self.physics_steps * self.spec.physics_dt
-
-    def pad_contact_forces(self) -> np.ndarray:
-        """Per hand, the summed contact normal force between the box and the links below its wrist sensor [N]
-        (PyBullet's contact solution of the last physics step; zeros without a box)."""
-        if self.world is None or self.world.box is None:
-            return np.zeros(len(self.hand_links))
-        return self._pad_forces(self.client.getContactPoints(bodyA=self.world.box, bodyB=self.body))
-
-    def _pad_forces(self, box_contacts: tuple) -> np.ndarray:
-        """`pad_contact_forces` from the box's contact points with the robot, summed in their order."""
-        forces = [0.0] * len(self.hand_links)
-        for point in box_contacts:
-            for h in self._hands_of_tool_link.get(point[4], ()):
-                forces[h] += point[9]
-        return np.array(forces)
 
     @cached_property
     def _hands_of_tool_link(self) -> dict[int, list[int]]:
