@@ -40,15 +40,22 @@ def test_decision_variable_counts_match_the_paper(eva, transcription, knots, exp
     assert problem.n_vars == expected
 
 
-def _reference(eva, scenario, transcription, t=9.0):
+def _hands(eva, scenario, transcription, t=9.0):
+    """The hands' reference rows (12 * hands) x K at t + the knot times (what WholeBodyMPC.step takes)."""
     ref = HandReference(scenario.reference, eva.hand_poses_numeric(eva.home))
-    return hand_rows(*ref.poses(t + transcription.knot_times)).ravel(order="F")
+    return hand_rows(*ref.poses(t + transcription.knot_times))
+
+
+def _reference(eva, scenario, transcription, t=9.0, chest=0.0):
+    """The problem's parameters p: the hands' rows, then the chest joints' reference rows (`chest` [rad])."""
+    hands = _hands(eva, scenario, transcription, t)
+    return np.vstack([hands, np.full((len(scenario.robot.chest_joints), hands.shape[1]), chest)]).ravel(order="F")
 
 
 @pytest.mark.parametrize("transcription", ["bezier", "traditional"])
 def test_structured_gradient_matches_finite_differences_of_the_named_cost_terms(eva, rng, transcription):
     scenario, tr, problem = _problem(eva, f"mpc.transcription={transcription}", "mpc.knots=6")
-    p = _reference(eva, scenario, tr)
+    p = _reference(eva, scenario, tr, chest=0.3)  # the chest cost pulled off 0 (a blocked stance's square chest)
     x = np.tile(eva.home, tr.n_vars // eva.n_dof) + 0.05 * rng.standard_normal(tr.n_vars)
     _, g = KnotDerivatives(problem)(x, p)
     f = lambda z: sum(problem.evaluate_terms(z, p).values())
@@ -71,7 +78,8 @@ def test_gauss_newton_hessian_equals_exact_hessian_where_residuals_vanish(eva, r
     poses = [eva.hand_poses_numeric(q_knots[:, k]) for k in range(tr.n_knots)]
     positions = np.array([[p.ravel() for p, _ in pose] for pose in poses])
     rotations = np.array([[r for _, r in pose] for pose in poses])
-    p = hand_rows(positions, rotations).ravel(order="F")  # the reference is the trajectory itself
+    chest = q_knots[[eva.index(j) for j in scenario.robot.chest_joints]]
+    p = np.vstack([hand_rows(positions, rotations), chest]).ravel(order="F")  # the reference is the trajectory itself
     H_gn, _ = KnotDerivatives(problem)(x, p)
     f = sum(problem.terms.values())
     H_exact = np.array(cs.Function("h", [problem.x, problem.p], [cs.hessian(f, problem.x)[0]])(x, p))
@@ -133,8 +141,7 @@ def test_bezier_trajectory_satisfies_trapezoidal_integration_better_than_euler(e
 def _solve_once(eva, *overrides):
     scenario = load_scenario(TABLE1, list(overrides))
     mpc = WholeBodyMPC(eva, scenario, scenario.sim.control_dt)
-    p = _reference(eva, scenario, mpc.transcription, t=6.0)
-    command, result = mpc.step(eva.home.copy(), np.reshape(p, mpc.problem.ref_shape, order="F"))
+    command, result = mpc.step(eva.home.copy(), _hands(eva, scenario, mpc.transcription, t=6.0))
     return mpc, command, result
 
 
@@ -174,7 +181,7 @@ def test_solution_starts_at_the_measured_state_with_the_head_pinned(eva):
 def test_failed_solve_is_reported_and_the_last_good_plan_is_held(eva):
     scenario = load_scenario(TABLE1, ["mpc.knots=6"])
     mpc = WholeBodyMPC(eva, scenario, scenario.sim.control_dt)
-    p = np.reshape(_reference(eva, scenario, mpc.transcription, 6.0), mpc.problem.ref_shape, order="F")
+    p = _hands(eva, scenario, mpc.transcription, 6.0)
     first, ok = mpc.step(eva.home.copy(), p)
     assert ok.success and not first.held
     plan = mpc.x.copy()
@@ -330,3 +337,18 @@ def test_a_jump_of_the_references_changes_the_joint_velocities_by_at_most_the_ac
         change[bound] = np.abs(t.readout(result.x, 0.0)[1][: eva.n_dof] - before).max()
     assert change["null"] > 10 * 2.0 * dt  # premise: unbounded, the first solve after the jump steps the velocity
     assert change["2.0"] <= 2.0 * dt + 1e-6
+
+
+def test_a_chest_reference_turns_the_chest_and_the_base_turns_back_as_much_so_the_hands_stay(eva):
+    scenario = load_scenario(TABLE1, ["mpc.knots=6", "solver.name=ipopt"])
+    mpc = WholeBodyMPC(eva, scenario, scenario.sim.control_dt)
+    K, chest, yaw = mpc.transcription.n_knots, eva.index(scenario.robot.chest_joints[0]), eva.base_joints[2]
+    poses = eva.hand_poses_numeric(eva.home)
+    still = hand_rows(np.array([[p.ravel() for p, _ in poses]] * K), np.array([[r for _, r in poses]] * K))
+    _, result = mpc.step(eva.home.copy(), still, chest_ref=np.full((1, K), 0.4))
+    assert result.success
+    q_end = mpc.transcription.knots(result.x)[0][:, -1]
+    assert q_end[chest] > 0.2  # pulled towards 0.4 within the horizon's velocity and acceleration costs
+    assert abs(q_end[chest] + (q_end[yaw] - eva.home[yaw])) < 0.05  # the arms take up the rest (3 deg)
+    hands = np.array([p.ravel() for p, _ in eva.hand_poses_numeric(q_end)])
+    assert np.abs(hands - [p.ravel() for p, _ in poses]).max() < 0.02

@@ -23,8 +23,9 @@ from matplotlib.patches import Circle, Rectangle  # noqa: E402
 
 from harmony_cli.maths.shapes import table_legs  # noqa: E402
 from harmony_cli.scenario import ScenarioError, load_scenario, robot_of  # noqa: E402
+from harmony_cli.tasks.stance_plan import pivot_targets  # noqa: E402
 from harmony_cli.tasks.stance_pose import stance_pose  # noqa: E402
-from harmony_cli.tasks.two_stage import TaskReferences, stance_targets  # noqa: E402
+from harmony_cli.tasks.two_stage import TaskReferences  # noqa: E402
 
 
 def _rectangle(centre, half, yaw_deg, **style) -> Rectangle:
@@ -74,10 +75,10 @@ def main(argv: list[str] | None = None) -> None:
     if not blocked:
         print(f"{args.scenario}: no blocked stance (no stance warning); the figure shows the scene only")
     for stance in blocked:
-        at_pivot = stance_targets(scenario, robot, stance, references.planner.heading_offset)
-        if at_pivot is None:  # reached through an approach phase: no pose is searched for it (two_stage.py)
+        at_pivot = pivot_targets(scenario, robot, stance, references.planner.heading_offset)
+        if at_pivot is None:  # no phase of the group works at its pivot
             continue
-        pairs, headings = at_pivot
+        pairs, headings, _ = at_pivot
         ax.plot(*pairs[:, :, :2].reshape(-1, 2).T, "k+", label=f"hand targets at {stance.pivot}")
         for which, colour, label in ((bare, "tab:orange", "footprint alone"), (scenario, "tab:blue", "with trunk")):
             pose = stance_pose(which, robot, pairs, headings)

@@ -60,7 +60,11 @@ def run_loop(
                 mpc.set_obstacle_centres(predict(t + mpc.knot_times))
             solve = time.perf_counter()
             command, result = mpc.step(
-                obs.q, hand_rows(targets.positions, targets.rotations), targets.force_ref, obs.pad_forces
+                obs.q,
+                hand_rows(targets.positions, targets.rotations),
+                targets.force_ref,
+                obs.pad_forces,
+                targets.chest_ref,
             )
             end = time.perf_counter()
             truth = sim.truth()

@@ -83,10 +83,10 @@ def clearance_margins(
 
 
 def clearance_function(
-    robot: Robot, clearances: tuple[Clearance, ...], footprint: tuple, compliant: bool = False
+    robot: Robot, clearances: tuple[Clearance, ...], footprint: tuple, compliant: bool = False, n_chest: int = 0
 ) -> cs.Function:
     """h(q, ref) >= 0 per knot (q, ref as in task_residual_function): the hard clearance constraints."""
-    layout = KnotLayout(len(robot.end_effectors), len(clearances), compliant)
+    layout = KnotLayout(len(robot.end_effectors), len(clearances), compliant, n_chest)
     q = cs.SX.sym("q", robot.n_dof + (layout.n_hands if compliant else 0))
     ref = cs.SX.sym("ref", layout.rows)
     return cs.Function(

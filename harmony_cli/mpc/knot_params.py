@@ -3,6 +3,7 @@
     per hand      [p_ref (3); vec(R_ref) (9)]          (column-major vec, as casadi.vec)
     per obstacle  [centre (3); yaw]                    (moving obstacles: their predicted poses)
     if compliant  per hand F_ref, then per hand F_meas [N]
+    per chest joint  its reference [rad] (0: straight; a stance pose's where the written stance is blocked)
 
 The task residual keeps the hands' rows in the same order: per hand 3 position rows, then 9 rotation rows."""
 
@@ -21,10 +22,20 @@ class KnotLayout:
     n_hands: int
     n_obstacles: int
     compliant: bool = False
+    n_chest: int = 0
 
     @property
     def rows(self) -> int:
+        return self.chest_start + self.n_chest
+
+    @property
+    def chest_start(self) -> int:
+        """The first chest reference row."""
         return HAND_ROWS * self.n_hands + POSE_ROWS * self.n_obstacles + (2 * self.n_hands if self.compliant else 0)
+
+    @property
+    def chest_ref(self) -> slice:
+        return slice(self.chest_start, self.rows)
 
     def hand_position(self, h: int) -> slice:
         return slice(HAND_ROWS * h, HAND_ROWS * h + 3)
@@ -61,9 +72,11 @@ class KnotLayout:
         obstacle_poses: np.ndarray,
         force_ref: np.ndarray | None = None,
         force_meas: np.ndarray | None = None,
+        chest_ref: np.ndarray | None = None,
     ) -> np.ndarray:
         """The parameter vector vec(rows x K): hands (12 hands x K, see hand_rows), obstacle poses (4 obstacles
-        x K), and when compliant the force references (hands x K) and measured forces (hands,) held over K."""
+        x K), when compliant the force references (hands x K) and measured forces (hands,) held over K, then the
+        chest joints' references (chest joints x K; 0 by default)."""
         rows = [hands, obstacle_poses]
         if self.compliant:
             K = hands.shape[1]
@@ -71,6 +84,9 @@ class KnotLayout:
                 np.zeros((self.n_hands, K)) if force_ref is None else force_ref,
                 np.tile(np.zeros(self.n_hands) if force_meas is None else force_meas, (K, 1)).T,
             ]
+        if self.n_chest:
+            K = hands.shape[1]
+            rows.append(np.zeros((self.n_chest, K)) if chest_ref is None else chest_ref)
         return np.vstack(rows).ravel(order="F")
 
 

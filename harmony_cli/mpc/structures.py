@@ -82,7 +82,9 @@ def build_structure(robot: Robot, scenario: Scenario) -> Structure:
         scenario.mpc.clearance,
         admittance,
     )
-    layout = KnotLayout(len(robot.end_effectors), len(clearances), admittance is not None)
+    layout = KnotLayout(
+        len(robot.end_effectors), len(clearances), admittance is not None, len(scenario.robot.chest_joints)
+    )
     return Structure(transcription, clearances, layout, problem)
 
 

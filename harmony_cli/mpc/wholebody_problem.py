@@ -31,6 +31,7 @@ def task_residual_function(
     footprint: tuple[tuple[float, float, float], ...] = (),
     soft: bool = False,
     compliant: bool = False,
+    n_chest: int = 0,
 ) -> cs.Function:
     """Weighted per-knot residual r(q, ref) = [sqrt(w_p/K)(p - p_ref - dp n); sqrt(w_o/K) vec(R - R_ref)] per
     hand, then if `soft`, sqrt(w_c/K) max(0, -margin) for every clearance margin (squared in the cost: C1).
@@ -38,7 +39,7 @@ def task_residual_function(
     q = [joints; dp per hand if compliant]: dp is the compliant offset along the pad normal n = R e_z.
     ref: see knot_params.KnotLayout. ||R - R_ref||_F^2 = 2(3 - tr(R_ref^T R)) is sign-safe.
     """
-    layout = KnotLayout(len(robot.end_effectors), len(clearances), compliant)
+    layout = KnotLayout(len(robot.end_effectors), len(clearances), compliant, n_chest)
     nd = robot.n_dof
     q = cs.SX.sym("q", nd + (layout.n_hands if compliant else 0))
     ref = cs.SX.sym("ref", layout.rows)
@@ -74,7 +75,7 @@ def linear_residuals(
     arms = [i for i in moving if i not in robot.base_joints and i not in chest]
     home = robot.home[arms][:, None]
     linear = {
-        "chest_yaw": np.sqrt(weights.chest_yaw / K) * q[chest, :],
+        "chest_yaw": np.sqrt(weights.chest_yaw / K) * (q[chest, :] - ref[layout.chest_ref, :]),
         "arm_symmetry": np.sqrt(weights.arm_symmetry / K)
         * cs.vertcat(cs.SX(0, K), *[q[robot.index(a), :] + q[robot.index(b), :] for a, b in mirrored_joints]),
         "posture": np.sqrt(weights.posture / K) * (q[arms, :] - home),
@@ -124,14 +125,16 @@ def build_problem(
     term). With `admittance`, the transcription carries one compliant offset per hand after the joints (see
     task_residual_function)."""
     K = transcription.n_knots
-    layout = KnotLayout(len(robot.end_effectors), len(clearances), admittance is not None)
+    layout = KnotLayout(len(robot.end_effectors), len(clearances), admittance is not None, len(chest_joints))
     parts = [cs.SX.sym(name, *shape) for name, shape in transcription.variable_shapes.items()]
     x = cs.vertcat(*[cs.vec(v) for v in parts])
     ref = cs.SX.sym("knot_params", layout.rows, K)
     knots = transcription.knots(x)
 
     soft = clearance == "soft" and bool(clearances)
-    task_residual = task_residual_function(robot, weights, K, clearances, footprint, soft, layout.compliant)
+    task_residual = task_residual_function(
+        robot, weights, K, clearances, footprint, soft, layout.compliant, layout.n_chest
+    )
     residual = task_residual.map(K)(knots[0], ref)
     terms: dict[str, cs.SX] = {}
     for h, hand in enumerate(robot.hand_names):
@@ -143,7 +146,11 @@ def build_problem(
     for name, r in linear.items():
         terms[name] = cs.sumsqr(r)
 
-    constraint = clearance_function(robot, clearances, footprint, layout.compliant) if clearances and not soft else None
+    constraint = (
+        clearance_function(robot, clearances, footprint, layout.compliant, layout.n_chest)
+        if clearances and not soft
+        else None
+    )
     p = cs.vec(ref)
     L, S, c = _affine_form(linear, x, p)
     A, lb, ub = linear_rows(x, transcription.linear_constraints(x, joint_limits(robot, admittance)[2]))

@@ -7,7 +7,7 @@ Why: the whole-body MPC only tracks the hands; where the base stands follows fro
 from the base behind the hands as at home. When an obstacle's margin holds the base off that spot, the optimum
 lets a hand sag or the grip twist rather than walk the base round to a pose that works. This IK is global in the
 base (seeded at headings all round the targets); the planner routes the hands through the pose's position
-(two_stage.py), so the base, which follows them, arrives on the side where it can stand.
+(stance_plan.py), so the base, which follows them, arrives on the side where it can stand.
 
 The base's footprint may pass under a table's top (between its legs); the body it carries may not (robot.trunk):
 without that row the pose found for a place blocked from its front stood the base under the table from behind,
@@ -34,6 +34,7 @@ from harmony_cli.tasks.scene_check import trunk_under_tops
 TURNS_DEG = (0, 45, -45, 90, -90, 135, -135, 180)  # base headings tried, from the written one
 POSITION_TOL = 0.01  # [m] each hand from its target
 ROTATION_TOL = 1e-3  # ||R - R_ref||_F^2 per hand (about 1.3 deg)
+SAME_M, SAME_RAD = 0.05, np.deg2rad(5)  # two poses this close in position and yaw are one
 
 
 def stance_pose(
@@ -43,6 +44,15 @@ def stance_pose(
     turned to `headings` (phases,) (the planner's heading: 0 at home), clear of the scene, and the joint positions
     (phases, all joints) that do; from the first start that converges (the written heading's first, then turned
     ever further from it); None if none converged."""
+    found = stance_poses(scenario, robot, targets, headings, first=True)
+    return found[0] if found else None
+
+
+def stance_poses(
+    scenario: Scenario, robot: Robot, targets: np.ndarray, headings: np.ndarray, first: bool = False
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """stance_pose's poses from every start that converges, in the order tried (`first`: stop at the first), the
+    same pose found twice (within SAME_M and SAME_RAD) once."""
     home = home_at_origin(robot)
     rotations = [r for _, r in robot.hand_poses_numeric(home)]
     free, lower, upper = arm_joints(robot)
@@ -76,18 +86,28 @@ def stance_pose(
     solver = cs.nlpsol("stance", "ipopt", {"x": cs.vertcat(base, *variables), "f": cost, "g": g}, options)
     behind = _behind(robot, home)
     middle = targets.mean(axis=(0, 1))[:2]
+    found: list[tuple[np.ndarray, np.ndarray]] = []
     for turn in np.deg2rad(TURNS_DEG):
         yaw = float(headings[-1]) + turn
         start = np.r_[middle - rot_z(np.asarray(yaw))[:2, :2] @ behind, yaw]
         with captured_output():
             out = solver(x0=np.r_[start, np.tile(home[free], len(targets))], lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
-        if solver.stats()["success"]:
-            x = np.asarray(out["x"]).ravel()
-            joints = np.tile(home, (len(targets), 1))
-            joints[:, free] = x[3:].reshape(len(targets), len(free))
-            joints[:, list(robot.base_joints)] = x[:3]
-            return x[:3], joints
-    return None
+        if not solver.stats()["success"]:
+            continue
+        x = np.asarray(out["x"]).ravel()
+        joints = np.tile(home, (len(targets), 1))
+        joints[:, free] = x[3:].reshape(len(targets), len(free))
+        joints[:, list(robot.base_joints)] = x[:3]
+        if not any(_same(x[:3], base) for base, _ in found):
+            found.append((x[:3], joints))
+        if first:
+            break
+    return found
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    turn = (a[2] - b[2] + np.pi) % (2 * np.pi) - np.pi
+    return bool(np.hypot(*(a[:2] - b[:2])) <= SAME_M and abs(turn) <= SAME_RAD)
 
 
 def _trunk_rows(scenario: Scenario, base: cs.SX) -> list:

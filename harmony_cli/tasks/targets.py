@@ -16,6 +16,7 @@ class HandTargets:
     rotations: np.ndarray  # (K, hands, 3, 3)
     now: np.ndarray  # (hands, 3) where the hands are asked to be at t (what tracking errors are measured from)
     force_ref: np.ndarray | None = None  # (hands, K) squeeze force references [N] when the admittance is on
+    chest_ref: np.ndarray | None = None  # (chest joints, K) [rad] where the chest cost pulls (None: straight)
     log: dict = field(default_factory=dict)  # fields for the step record (phase, planner status and timing)
 
 

@@ -25,7 +25,8 @@ from harmony_cli.tasks.passage import narrowest_width
 from harmony_cli.tasks.scene_check import target_position
 from harmony_cli.tasks.schedule import ActivePhase, Schedule
 from harmony_cli.tasks.stance import Stance, stances
-from harmony_cli.tasks.stance_pose import TURNS_DEG, stance_pose
+from harmony_cli.tasks.stance_plan import NEAR, stance_plan
+from harmony_cli.tasks.stance_pose import TURNS_DEG
 from harmony_cli.tasks.targets import HandTargets
 
 if TYPE_CHECKING:
@@ -62,8 +63,10 @@ class TaskReferences:
         )
         self.warnings += self._goals_inside(robot.hand_names)
         self.stances = _stances(scenario, robot, hands, offset, obstacles)
-        self.vias, unplaced = _vias(scenario, robot, self.stances, offset)  # phase index -> (2,): see _vias
-        self.warnings += [_unplaced(stance, bool(scenario.robot.trunk)) for stance in unplaced]
+        self.stance_plan = stance_plan(scenario, robot, self.stances, offset)  # vias and chest postures
+        self.vias = self.stance_plan.vias
+        self.warnings += [_unplaced(stance, bool(scenario.robot.trunk)) for stance in self.stance_plan.unplaced]
+        self.base_xy = list(robot.base_joints[:2])  # where the base stands picks a chest posture (stance_plan.py)
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
         box = scenario.world.box
         self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
@@ -110,7 +113,8 @@ class TaskReferences:
         force_ref = None
         if self.schedule.admittance.enabled:
             force_ref = np.tile(self.schedule.force(t + knot_times), (len(self.schedule.hand_names), 1))
-        return HandTargets(positions, rotations, positions[0] if now is None else now, force_ref, log)
+        chest_ref = self.stance_plan.chest(active.index, positions, obs.q[self.base_xy])
+        return HandTargets(positions, rotations, positions[0] if now is None else now, force_ref, chest_ref, log)
 
     def _free_handed(self, goal: np.ndarray, box: np.ndarray | None, t: float) -> bool:
         """Whether a phase starting at `t` with the hands' `goal` (hands, 3) neither holds the box nor works at it
@@ -238,51 +242,6 @@ def _stances(
     still = [k for k, body in enumerate(bodies) if body.motion is None]
     footprint = PlannedBase.at_home(circles, robot.home[list(robot.base_joints)], hands, [bodies[k] for k in still])
     return stances(scenario, robot.hand_names, (footprint, [names[k] for k in still]), heading_offset)
-
-
-NEAR = 0.2  # [m] a phase works at its group's pivot when its hands' midpoint is this near it (plan view)
-
-
-def _vias(
-    scenario: Scenario, robot: Robot, found: list[Stance], heading_offset: float
-) -> tuple[dict[int, np.ndarray], list[Stance]]:
-    """For each group whose written stance is blocked (a warning), a base pose that works at its pivot
-    (stance_pose.py: clear of the scene, the hands on the group's targets there) and the first phase's index: that
-    phase's first plan routes the hands through the pose's position, so they come to the pivot from where the base
-    can stand and the base, which follows them, arrives on that side of whatever blocks the written stance. Also
-    the groups for which no pose was found."""
-    assert scenario.task is not None
-    names = [p.name for p in scenario.task.phases]
-    vias, unplaced = {}, []
-    for stance in found:
-        if stance.warning() is None:
-            continue
-        at_pivot = stance_targets(scenario, robot, stance, heading_offset)
-        if at_pivot is None:  # the group's way in is a phase of its own (an approach): its pose is not the one found
-            continue
-        pose = stance_pose(scenario, robot, *at_pivot)
-        if pose is not None:
-            vias[names.index(stance.phases[0])] = pose[0][:2]
-        else:
-            unplaced.append(stance)
-    return vias, unplaced
-
-
-def stance_targets(
-    scenario: Scenario, robot: Robot, stance: Stance, heading_offset: float
-) -> tuple[np.ndarray, np.ndarray] | None:
-    """The hand targets (phases, hands, 3) of a stance's phases that work at its pivot (within NEAR of it) and the
-    planner's headings there (phases,), what stance_pose asks for; None when the group's first phase is not at the
-    pivot (an approach)."""
-    assert scenario.task is not None
-    names = [p.name for p in scenario.task.phases]
-    phases = [scenario.task.phases[names.index(n)] for n in stance.phases]
-    pairs = np.array([[target_position(p.hands[h], scenario) for h in robot.hand_names] for p in phases])
-    at = np.linalg.norm(pairs.mean(axis=1)[:, :2] - stance.pivot_position[:2], axis=1) <= NEAR
-    if not at[0]:
-        return None
-    d = pairs[at, 1] - pairs[at, 0]
-    return pairs[at], np.arctan2(d[:, 1], d[:, 0]) + heading_offset
 
 
 def _unplaced(stance: Stance, trunk: bool) -> str:
