@@ -59,13 +59,8 @@ def run_loop(
             if predict is not None:
                 mpc.set_obstacle_centres(predict(t + mpc.knot_times))
             solve = time.perf_counter()
-            command, result = mpc.step(
-                obs.q,
-                hand_rows(targets.positions, targets.rotations),
-                targets.force_ref,
-                obs.pad_forces,
-                targets.chest_ref,
-            )
+            hands = hand_rows(targets.positions, targets.rotations)
+            command, result = mpc.step(obs.q, hands, targets.force_ref, obs.pad_forces, targets.chest_ref)
             end = time.perf_counter()
             truth = sim.truth()
             watched = watch(t, obs, truth) if watch else {}
