@@ -8,8 +8,8 @@ about its pivot (the box; the box's goal) that would clear the base, for the aut
 
 Turning the targets automatically was tried (issue 14): it changed which runs failed, not how many (the carry to
 a turned place twists the grip instead), so the turn is a suggestion. What harmony does instead for a blocked place
-is find a base pose that works there and route the carry through it, and near a blocked pivot let the chest turn
-the arms square to the hands (stance_pose.py, stance_plan.py)."""
+is find a base pose that works there, route the carry through it and, near a blocked pivot, pull the chest to the
+angle of the pose found on the base's side (stance_pose.py, stance_plan.py)."""
 
 from __future__ import annotations
 
