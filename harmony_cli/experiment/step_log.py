@@ -146,9 +146,8 @@ def _add_hands(
             row[c.offset] = float(command.offsets[h])  # compliant offset commanded along the normal
             row[c.force_seen] = float(force_seen[h])  # the low-passed force the admittance used
         row |= zip(c.force, obs.wrenches[h, :3])  # grasp frame
-        if truth.pad_contact_N is not None:
-            row[c.contact] = float(truth.pad_contact_N[h])  # PyBullet's pad-box contact normal force
         if truth.pad_contacts is not None:  # sim/contacts.py
+            row[c.contact] = float(truth.pad_contacts.normal_N[h])  # PyBullet's pad-box contact normal force
             row[c.contact_points] = int(truth.pad_contacts.points[h])
             row[c.friction_used] = float(truth.pad_contacts.friction_used[h])
             row[c.normal_off_face] = float(truth.pad_contacts.normal_off_face_deg[h])

@@ -34,8 +34,7 @@ class Truth:
     box_z_axis: np.ndarray | None  # its z axis in the world (upright: ~ (0, 0, 1))
     box_pose: np.ndarray | None  # centre and quaternion (x, y, z, w): replays draw it
     box_touches_robot: bool
-    pad_contact_N: np.ndarray | None  # per hand, the box's contact normal force on the links below its wrist sensor
-    pad_contacts: PadContacts | None  # per hand, its contact points with the box, friction used, normals' angle
+    pad_contacts: PadContacts | None  # per hand (links below its wrist sensor): contacts with the box, their force
     push_N: dict[str, float]  # push_<name>_N, the force acting over the coming physics steps
     obstacle_positions: dict[str, np.ndarray]  # moving obstacles' centres as PyBullet has them
     clearance_robot_m: dict[str, float]  # per obstacle, the robot's true distance (PyBullet closest points)
@@ -121,7 +120,7 @@ class Simulation:
     def truth(self) -> Truth:
         """Ground truth for the logs (never for the controllers)."""
         world = self.world
-        centre, z_axis, pose, touching, contact, pads = None, None, None, False, None, None
+        centre, z_axis, pose, touching, pads = None, None, None, False, None
         positions: dict[str, np.ndarray] = {}
         robot: dict[str, float] = {}
         carried: dict[str, float] = {}
@@ -134,7 +133,7 @@ class Simulation:
                 pads = pad_contacts(
                     contacts, self._hands_of_tool_link, len(self.hand_links), rotation, self.pad_friction
                 )
-                touching, contact = len(contacts) > 0, pads.normal_N
+                touching = len(contacts) > 0
                 carried = world.clearances(world.box)
             positions = {name: world.obstacle_position(name) for name in world.moving}
             robot = world.clearances(self.body)
@@ -143,7 +142,6 @@ class Simulation:
             box_z_axis=z_axis,
             box_pose=pose,
             box_touches_robot=touching,
-            pad_contact_N=contact,
             pad_contacts=pads,
             push_N=self.pushes.magnitudes(self.time),
             obstacle_positions=positions,

@@ -78,7 +78,7 @@ def stance_plan(scenario: Scenario, robot: Robot, found: list[Stance], heading_o
         if stance.warning() is None:
             continue
         at_pivot = pivot_targets(scenario, robot, stance, heading_offset)
-        if at_pivot is None:
+        if at_pivot is None or not (at_pivot[2] or chest):  # neither a via nor a posture would use a pose
             continue
         poses = stance_poses(scenario, robot, *at_pivot[:2], first=not chest)
         if not poses:
