@@ -59,7 +59,7 @@ class TaskReferences:
         self.ceiling = hand_ceiling(robot, width)
         self.warnings = _above(scenario, robot.hand_names, self.ceiling, width)
         self.planner = TaskPlanner(
-            scenario.planner, obstacles, self.home_rotations, offset, _ground(scenario), base, self.ceiling
+            scenario.planner, obstacles, self.home_rotations, offset, _ground(scenario, base), base, self.ceiling
         )
         self.warnings += self._goals_inside(robot.hand_names)
         self.stances = _stances(scenario, robot, hands, offset, obstacles)
@@ -201,13 +201,16 @@ def _above(scenario: Scenario, hand_names: tuple[str, ...], ceiling: float | Non
     return lines
 
 
-def _ground(scenario: Scenario) -> Ground | None:
-    """The tables and the base's half width at its narrowest, for the planner's route (None: no footprint)."""
+def _ground(scenario: Scenario, base: PlannedBase | None) -> Ground | None:
+    """The tables and the base's half width at its narrowest, for the planner's route, which is the base's where
+    the planner carries the footprint (`base`) (None: no footprint)."""
     circles = np.asarray(scenario.robot.footprint, dtype=float).reshape(-1, 3)
     if len(circles) == 0:
         return None
     tables = [(table_shape(t), scenario.robot.base_margin) for t in scenario.world.tables]
-    return Ground(tables, 0.5 * narrowest_width(circles))
+    if base is None:
+        return Ground(tables, 0.5 * narrowest_width(circles))
+    return Ground(tables, 0.5 * narrowest_width(circles), base.offsets.mean(axis=0), base.yaw_home)
 
 
 def _planned_base(
