@@ -47,3 +47,23 @@ def test_with_nothing_in_the_way_the_bases_route_is_the_hands_straight_line():
     start, goal = _hands(0.0, 0.0, 0.0), _hands(3.0, 1.0, 0.4)
     found = route_around([], start, goal, BOX, ground, None, (0.0, 0.4))
     assert found is not None and np.allclose(found.points, [start.mean(axis=0)[:2], goal.mean(axis=0)[:2]])
+
+
+def test_the_straight_segment_shortcut_gives_the_route_the_full_graph_gives_on_random_scenes(monkeypatch):
+    from harmony_cli.mpc import plan_seed
+
+    rng = np.random.default_rng(14)
+    ground = Ground([], HALF_WIDTH, BEHIND, 0.0)
+    for _ in range(60):
+        posts = [
+            Obstacle(Shape("cylinder", np.r_[rng.uniform(-1, 4, 2), 1.0], 0.0, np.array([0.3, 0.3, 1.0])), 0.1)
+            for _ in range(3)
+        ]
+        headings = tuple(rng.uniform(-np.pi, np.pi, 2))
+        start, goal = _hands(*rng.uniform(-1, 0, 2), headings[0]), _hands(*rng.uniform(3, 4, 2), headings[1])
+        fast = route_around(posts, start, goal, BOX, ground, None, headings)
+        with monkeypatch.context() as patched:
+            patched.setattr(plan_seed, "visible", lambda *args: np.array([False]))  # never shortcut
+            full = route_around(posts, start, goal, BOX, ground, None, headings)
+        assert (fast is None) == (full is None)
+        assert fast is None or np.allclose(fast.points, full.points)
