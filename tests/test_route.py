@@ -118,3 +118,23 @@ def test_keeping_only_segments_tangent_at_their_corners_changes_no_route_on_rand
         assert (got is None) == (expected is None)
         if expected is not None:
             np.testing.assert_array_equal(got.points, expected.points)
+
+
+def test_the_segment_taken_when_clear_is_the_route_the_full_graph_finds_on_random_scenes(monkeypatch):
+    """plan_route skips its graph when the segment between the ends (once out of any outline) is clear: the
+    shortest path there, as the graph's search finds too."""
+    rng = np.random.default_rng(14)
+    scenes = []
+    for _ in range(300):
+        shapes = [footprint(_cylinder(*rng.uniform(-3, 3, 2), float(rng.uniform(0.1, 0.6))), 0.2) for _ in range(3)]
+        scenes.append((rng.uniform(-4, 4, 2), rng.uniform(-4, 4, 2), shapes))
+    fast = [plan_route(*scene) for scene in scenes]
+    monkeypatch.setattr(route, "_direct", lambda first, last, blocking: False)
+    full = [plan_route(*scene) for scene in scenes]
+    straight = sum(r is not None and len(r.points) == 2 for r in full)
+    assert 50 < straight < 250  # both ways are tried
+    for got, expected in zip(fast, full):
+        assert (got is None) == (expected is None)
+        if expected is not None:
+            np.testing.assert_allclose(got.points, expected.points, atol=1e-12)
+            assert abs(got.length - expected.length) < 1e-9

@@ -12,9 +12,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from harmony_cli.maths.rotations import rot_z
 from harmony_cli.maths.shapes import Shape
 from harmony_cli.mpc.route import Route, footprint, plan_route
-from harmony_cli.mpc.visibility import inside, polygon_of, visible
+from harmony_cli.mpc.visibility import polygon_of
 
 if TYPE_CHECKING:
     from harmony_cli.mpc.hand_plan import HandState, Obstacle
@@ -86,18 +87,22 @@ def route_around(
     reach = max(0.5 * float(np.linalg.norm(goal[1] - goal[0])), carried[0] if carried else 0.0)
     if ground is not None:
         reach = max(reach, ground.base_radius)
+    outlines = _outlines(obstacles, ground, (low, hands_z.max()), reach)
+    return _through(start.mean(axis=0)[:2], goal.mean(axis=0)[:2], outlines, via)
+
+
+def _outlines(obstacles: list[Obstacle], ground: Ground | None, band: tuple[float, float], grow: float) -> list:
+    """The plan-view outlines of the static obstacles reaching into the height `band` (low, high), each grown by
+    its clearance plus `grow`, then with `ground` the tables' grown by their margin plus the base's half width."""
     outlines = []
     for obstacle in obstacles:
         shape = obstacle.shape
-        if obstacle.motion is not None:
-            continue
         top, bottom = shape.centre[2] + shape.half[2], shape.centre[2] - shape.half[2]
-        if top + obstacle.clearance < low or bottom - obstacle.clearance > hands_z.max():
-            continue
-        outlines.append(footprint(shape, obstacle.clearance + reach))
+        if obstacle.motion is None and top + obstacle.clearance >= band[0] and bottom - obstacle.clearance <= band[1]:
+            outlines.append(footprint(shape, obstacle.clearance + grow))
     if ground is not None:
         outlines += [footprint(table, margin + ground.base_radius) for table, margin in ground.tables]
-    return _through(start.mean(axis=0)[:2], goal.mean(axis=0)[:2], outlines, via)
+    return outlines
 
 
 def _through(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray], via: np.ndarray | None) -> Route | None:
@@ -120,19 +125,9 @@ def _base_route(obstacles, start, goal, ground: Ground, headings: tuple[float, f
     the pick table's corner: the whole-body MPC's base wedged between them, its clearance rows contradicting at the
     horizon's end, the commands chattering at 50 Hz, the box dropped; docs/results.md)."""
     assert ground.behind is not None
-    top = max(start[:, 2].max(), goal[:, 2].max())
-    outlines = [
-        footprint(o.shape, o.clearance + ground.base_radius)
-        for o in obstacles
-        if o.motion is None and o.shape.centre[2] - o.shape.half[2] - o.clearance <= top
-    ]
-    outlines += [footprint(table, margin + ground.base_radius) for table, margin in ground.tables]
-    behind = lambda heading: rot2(ground.yaw_home + heading) @ ground.behind  # noqa: E731
+    outlines = _outlines(obstacles, ground, (0.0, max(start[:, 2].max(), goal[:, 2].max())), ground.base_radius)
+    behind = lambda heading: rot_z(np.asarray(ground.yaw_home + heading))[:2, :2] @ ground.behind  # noqa: E731
     ends = [hands.mean(axis=0)[:2] + behind(h) for hands, h in ((start, headings[0]), (goal, headings[1]))]
-    polygons, pair = [polygon_of(o) for o in outlines], np.array(ends)
-    clear = not any(inside(p, end) for p in polygons for end in pair)
-    if clear and visible(pair, np.array([0]), np.array([1]), polygons)[0]:
-        return None  # straight for the base, as plan_route would find, without its graph (2-4 ms of a route step)
     route = plan_route(ends[0], ends[1], outlines)
     if route is None or len(route.points) == 2:  # no way round for the base, or none needed: the midpoint's route
         return None
@@ -140,11 +135,6 @@ def _base_route(obstacles, start, goal, ground: Ground, headings: tuple[float, f
     turns = headings[0] + (headings[1] - headings[0]) * u
     points = route.at(u) - np.array([behind(h) for h in turns])
     return Route(points, float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum()))
-
-
-def rot2(angle: float) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, -s], [s, c]])
 
 
 def warm_outlines(obstacles: list[Obstacle], ground: Ground | None) -> None:
