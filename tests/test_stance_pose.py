@@ -77,7 +77,7 @@ def test_a_place_reached_only_with_the_waist_under_the_table_s_top_gets_no_pose_
     assert references.vias == {}
     assert [w for w in references.warnings if w.startswith("stance: no base pose found")] == [
         "stance: no base pose found, clear of the scene (the trunk out from under table tops), from which the hands "
-        "reach phases carry to retreat at the box's goal (8 headings tried; not a proof that none exists): the "
+        "reach phases carry to retreat at the box's goal (8 starts searched; not a proof that none exists): the "
         "robot may not get there"
     ]
     # without the trunk the pose found stands the base under the table, its waist inside the top

@@ -1,8 +1,9 @@
 """Impossible scenes, refused before they run: an obstacle overlapping a table, the box (where it starts or at its
 goal) or the robot's start (within the obstacle's margin, which the whole-body MPC must keep); a hand target that
 no collision-free base pose brings within the arm's reach, or none the base can drive to from its start
-(passage.py). Collision-free: the footprint clear of obstacles and table legs (it may pass under a table's top),
-the trunk (robot.trunk) out from under the tops at its height.
+(passage.py); a blocked stance at the box or its goal for which a search finds no base pose that works there
+(stance_check.py: a search, not a proof). Collision-free: the footprint clear of obstacles and table legs (it may
+pass under a table's top), the trunk (robot.trunk) out from under the tops at its height.
 
 Geometry is planar where the bodies are vertical prisms (tables, boxes, cylinders, the base footprint) and exact
 for them; heights are compared as intervals. The reach test is a necessary condition only (the arm's links laid
@@ -15,12 +16,13 @@ from pathlib import Path
 
 import numpy as np
 
-from harmony_cli.maths.shapes import Shape, obstacle_shape, table_legs, table_shape, table_top, table_top_pose
+from harmony_cli.maths.shapes import Shape, obstacle_shape, table_legs, table_shape
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.reach import hand_radius
 from harmony_cli.scenario import Scenario, robot_of
-from harmony_cli.scenario.task import RelativeTarget
+from harmony_cli.tasks.as_written import heights_meet, target_position, trunk_under_tops, z_range
 from harmony_cli.tasks.passage import Passage, planar_distance
+from harmony_cli.tasks.stance_check import unposed
 
 BASE_YAWS = 16  # base headings tried at each candidate position
 BASE_STEP = 0.05  # [m] spacing of candidate base positions
@@ -47,14 +49,6 @@ def _box_gap(a: Shape, b: Shape) -> float:
                 return float(min(planar_distance(b, ca).min(), planar_distance(a, cb).min()))
             depth = min(depth, overlap)
     return float(-depth)
-
-
-def _heights_meet(a: tuple[float, float], b: tuple[float, float]) -> bool:
-    return a[0] < b[1] and b[0] < a[1]
-
-
-def _z_range(shape: Shape) -> tuple[float, float]:
-    return shape.centre[2] - shape.half[2], shape.centre[2] + shape.half[2]
 
 
 class SceneCheck:
@@ -88,7 +82,7 @@ class SceneCheck:
             shape = obstacle_shape(obstacle)
             for name, body in bodies:
                 gap = planar_gap(shape, body)
-                if _heights_meet(_z_range(shape), _z_range(body)) and gap < self.clearance:
+                if heights_meet(z_range(shape), z_range(body)) and gap < self.clearance:
                     return f"obstacle {obstacle.name} overlaps {name} ({_gap_text(gap)})"
             for circle in footprint:
                 gap = planar_gap(shape, circle)
@@ -133,7 +127,7 @@ class SceneCheck:
                     f"footprint is {passage.width:.3f} m wide at its narrowest, so a gap must be wider than "
                     f"{passage.width:.3f} m plus the margins of the bodies on either side ({' / '.join(margins)} m)"
                 )
-        return None
+        return unposed(scenario, robot)
 
 
 def _base_place(
@@ -186,18 +180,6 @@ def _base_place(
     return found
 
 
-def trunk_under_tops(scenario: Scenario) -> list[tuple[np.ndarray, Shape]]:
-    """Each trunk circle (x, y, radius in the base frame) with the outline of each table whose top is at its height
-    (robot.trunk): the block to the floor, so that distances to it are plan-view ones, not to the slab's faces."""
-    tops = [(table_top(t), table_shape(t)) for t in scenario.world.tables]
-    return [
-        (np.array(circle[:3]), outline)
-        for circle in scenario.robot.trunk
-        for top, outline in tops
-        if _heights_meet((circle[3], circle[4]), _z_range(top))
-    ]
-
-
 def _footprint(circles, pose) -> list[Shape]:
     """The base footprint's circles in the world at a pose (x, y, yaw [deg])."""
     x, y, yaw = pose[0], pose[1], np.deg2rad(pose[2])
@@ -213,24 +195,6 @@ def _static_outlines(scenario: Scenario) -> list[tuple[Shape, float]]:
     shapes = [(obstacle_shape(o), o.margin) for o in scenario.world.obstacles if o.motion is None]
     legs = [leg for t in scenario.world.tables for leg in table_legs(t)]
     return shapes + [(leg, scenario.robot.base_margin) for leg in legs]
-
-
-def target_position(target, scenario: Scenario) -> np.ndarray | None:
-    """A hand target's world position as the scenario writes it (relative ones from where the box starts)."""
-    if target is None:
-        return None
-    if not isinstance(target, RelativeTarget):
-        return np.asarray(target, dtype=float)
-    if target.relative_to == "box":
-        box = scenario.world.box
-        assert box is not None  # the scenario's checks guarantee it
-        origin, yaw = np.asarray(box.position, dtype=float), float(np.deg2rad(box.yaw_deg))  # as the box starts
-    else:
-        table = next(t for t in scenario.world.tables if t.name == target.relative_to)
-        origin, yaw = table_top_pose(table)
-    c, s = np.cos(yaw), np.sin(yaw)
-    x, y, z = target.offset
-    return origin + [c * x - s * y, s * x + c * y, z]
 
 
 def _gap_text(gap: float) -> str:

@@ -20,7 +20,7 @@ import numpy as np
 from harmony_cli.mpc.plan_base import PlannedBase
 from harmony_cli.scenario import Scenario
 from harmony_cli.scenario.task import RelativeTarget
-from harmony_cli.tasks.scene_check import target_position
+from harmony_cli.tasks.as_written import target_position
 
 STEP_DEG, MOST_DEG = 15, 90  # turns tried: +-15, +-30, ... +-90 deg (a grip from behind the box is not one)
 # [m] how far inside a margin a written stance may be without a warning: the whole-body MPC stands the base where

@@ -28,7 +28,7 @@ import numpy as np
 
 from harmony_cli.robot.model import Robot
 from harmony_cli.scenario import Scenario
-from harmony_cli.tasks.scene_check import target_position
+from harmony_cli.tasks.as_written import target_position
 from harmony_cli.tasks.stance import Stance
 from harmony_cli.tasks.stance_pose import stance_poses
 

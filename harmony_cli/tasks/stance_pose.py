@@ -29,9 +29,11 @@ from harmony_cli.mpc.knot_params import KnotLayout
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.reach import arm_joints, home_at_origin
 from harmony_cli.scenario import Scenario
-from harmony_cli.tasks.scene_check import trunk_under_tops
+from harmony_cli.tasks.as_written import trunk_under_tops
 
 TURNS_DEG = (0, 45, -45, 90, -90, 135, -135, 180)  # base headings tried, from the written one
+# where the searches start: (turn from the written heading [deg], distance behind the targets as a share of home's)
+STARTS = tuple((turn, 1.0) for turn in TURNS_DEG)
 POSITION_TOL = 0.01  # [m] each hand from its target
 ROTATION_TOL = 1e-3  # ||R - R_ref||_F^2 per hand (about 1.3 deg)
 SAME_M, SAME_RAD = 0.05, np.deg2rad(5)  # two poses this close in position and yaw are one
@@ -49,10 +51,15 @@ def stance_pose(
 
 
 def stance_poses(
-    scenario: Scenario, robot: Robot, targets: np.ndarray, headings: np.ndarray, first: bool = False
+    scenario: Scenario,
+    robot: Robot,
+    targets: np.ndarray,
+    headings: np.ndarray,
+    first: bool = False,
+    starts: tuple[tuple[float, float], ...] = STARTS,
 ) -> list[tuple[np.ndarray, np.ndarray]]:
-    """stance_pose's poses from every start that converges, in the order tried (`first`: stop at the first), the
-    same pose found twice (within SAME_M and SAME_RAD) once."""
+    """stance_pose's poses from every one of `starts` (STARTS) that converges, in the order tried (`first`: stop at
+    the first), the same pose found twice (within SAME_M and SAME_RAD) once."""
     home = home_at_origin(robot)
     rotations = [r for _, r in robot.hand_poses_numeric(home)]
     free, lower, upper = arm_joints(robot)
@@ -87,9 +94,9 @@ def stance_poses(
     behind = _behind(robot, home)
     middle = targets.mean(axis=(0, 1))[:2]
     found: list[tuple[np.ndarray, np.ndarray]] = []
-    for turn in np.deg2rad(TURNS_DEG):
-        yaw = float(headings[-1]) + turn
-        start = np.r_[middle - rot_z(np.asarray(yaw))[:2, :2] @ behind, yaw]
+    for turn, share in starts:
+        yaw = float(headings[-1]) + np.deg2rad(turn)
+        start = np.r_[middle - share * rot_z(np.asarray(yaw))[:2, :2] @ behind, yaw]
         with captured_output():
             out = solver(x0=np.r_[start, np.tile(home[free], len(targets))], lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         if not solver.stats()["success"]:

@@ -4,14 +4,13 @@ MPC's knots. It sees only the observation (hands, box pose) and the scenario's s
 from __future__ import annotations
 
 import time
-from dataclasses import replace
 from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from harmony_cli.maths.rotations import heading_of
-from harmony_cli.maths.shapes import obstacle_shape, table_legs, table_shape, table_top_pose
+from harmony_cli.maths.shapes import obstacle_shape, table_shape, table_top_pose
 from harmony_cli.mpc.hand_plan import HandState, Obstacle, PlannerResult
 from harmony_cli.mpc.plan_base import PlannedBase
 from harmony_cli.mpc.plan_seed import Ground
@@ -19,14 +18,14 @@ from harmony_cli.mpc.planner import TaskPlanner
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.observation import Observation
 from harmony_cli.robot.reach import hand_ceiling
+from harmony_cli.tasks.as_written import target_position
 from harmony_cli.tasks.clear_goal import FARTHEST, cleared
 from harmony_cli.tasks.motion import centre_at
 from harmony_cli.tasks.passage import narrowest_width
-from harmony_cli.tasks.scene_check import target_position
 from harmony_cli.tasks.schedule import ActivePhase, Schedule
-from harmony_cli.tasks.stance import Stance, stances
+from harmony_cli.tasks.stance_check import base_bodies, home_hands, no_pose, written_stances
 from harmony_cli.tasks.stance_plan import NEAR, stance_plan
-from harmony_cli.tasks.stance_pose import TURNS_DEG
+from harmony_cli.tasks.stance_pose import STARTS
 from harmony_cli.tasks.targets import HandTargets
 
 if TYPE_CHECKING:
@@ -41,10 +40,8 @@ class TaskReferences:
             raise ValueError(f"{scenario.name}: no task phases to plan for")
         self.scenario = scenario
         self.schedule = Schedule(scenario.task, robot.hand_names, scenario.admittance)
-        poses = robot.hand_poses_numeric(robot.home)
-        self.home_rotations = np.array([r for _, r in poses])
-        p0, p1 = (p.ravel() for p, _ in poses)
-        offset = -np.arctan2(p1[1] - p0[1], p1[0] - p0[0])  # home heading is 0 (base yaw 0 at home)
+        self.home_rotations = np.array([r for _, r in robot.hand_poses_numeric(robot.home)])
+        hands, offset = home_hands(robot)  # home heading is 0 (base yaw 0 at home)
         obstacles = [
             Obstacle(
                 obstacle_shape(o),
@@ -53,8 +50,7 @@ class TaskReferences:
             )  # the true motion predicts
             for o in scenario.world.obstacles
         ]
-        hands = np.array([p0, p1])
-        base = _planned_base(scenario, robot.home[list(robot.base_joints)], hands, obstacles)
+        base = _planned_base(scenario, robot.home[list(robot.base_joints)], hands)
         width = _grip_width(scenario, robot, hands)
         self.ceiling = hand_ceiling(robot, width)
         self.warnings = _above(scenario, robot.hand_names, self.ceiling, width)
@@ -62,10 +58,13 @@ class TaskReferences:
             scenario.planner, obstacles, self.home_rotations, offset, _ground(scenario, base), base, self.ceiling
         )
         self.warnings += self._goals_inside(robot.hand_names)
-        self.stances = _stances(scenario, robot, hands, offset, obstacles)
+        self.stances = written_stances(scenario, robot, hands, offset)
         self.stance_plan = stance_plan(scenario, robot, self.stances, offset)  # vias and chest postures
         self.vias = self.stance_plan.vias
-        self.warnings += [_unplaced(stance, bool(scenario.robot.trunk)) for stance in self.stance_plan.unplaced]
+        self.warnings += [
+            f"{no_pose(stance, bool(scenario.robot.trunk), len(STARTS))}: the robot may not get there"
+            for stance in self.stance_plan.unplaced
+        ]
         self.base_xy = list(robot.base_joints[:2])  # where the base stands picks a chest posture (stance_plan.py)
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
         box = scenario.world.box
@@ -213,45 +212,8 @@ def _ground(scenario: Scenario, base: PlannedBase | None) -> Ground | None:
     return Ground(tables, 0.5 * narrowest_width(circles), base.offsets.mean(axis=0), base.yaw_home)
 
 
-def _planned_base(
-    scenario: Scenario, base_pose: np.ndarray, hands: np.ndarray, obstacles: list[Obstacle]
-) -> PlannedBase | None:
+def _planned_base(scenario: Scenario, base_pose: np.ndarray, hands: np.ndarray) -> PlannedBase | None:
     """The footprint as the planner carries it behind the hands (None: no footprint, or nothing to clear)."""
     circles = np.asarray(scenario.robot.footprint, dtype=float).reshape(-1, 3)
-    bodies, _ = _base_bodies(scenario, obstacles)
+    bodies, _ = base_bodies(scenario)
     return PlannedBase.at_home(circles, base_pose, hands, bodies) if len(circles) and bodies else None
-
-
-def _base_bodies(scenario: Scenario, obstacles: list[Obstacle]) -> tuple[list[Obstacle], list[str]]:
-    """What the footprint keeps clear of, as the whole-body MPC does, and their names: every obstacle (the hands'
-    `obstacles`, in scenario order) by its margin, every table leg by the base's."""
-    bodies = [replace(ob, clearance=o.margin) for o, ob in zip(scenario.world.obstacles, obstacles)]
-    names = [f"obstacle {o.name}" for o in scenario.world.obstacles]
-    for table in scenario.world.tables:
-        legs = table_legs(table)
-        bodies += [Obstacle(leg, scenario.robot.base_margin) for leg in legs]
-        names += [f"table {table.name}'s leg"] * len(legs)
-    return bodies, names
-
-
-def _stances(
-    scenario: Scenario, robot: Robot, hands: np.ndarray, heading_offset: float, obstacles: list[Obstacle]
-) -> list[Stance]:
-    """Where the base stands to grip and to place as written (stance.py), among the bodies that stand still."""
-    circles = np.asarray(scenario.robot.footprint, dtype=float).reshape(-1, 3)
-    if len(circles) == 0:
-        return []
-    bodies, names = _base_bodies(scenario, obstacles)
-    still = [k for k, body in enumerate(bodies) if body.motion is None]
-    footprint = PlannedBase.at_home(circles, robot.home[list(robot.base_joints)], hands, [bodies[k] for k in still])
-    return stances(scenario, robot.hand_names, (footprint, [names[k] for k in still]), heading_offset)
-
-
-def _unplaced(stance: Stance, trunk: bool) -> str:
-    """The warning for a blocked stance for which no base pose was found (`trunk`: the robot has one)."""
-    where = stance.phases[0] if len(stance.phases) == 1 else f"{stance.phases[0]} to {stance.phases[-1]}"
-    clear = "clear of the scene (the trunk out from under table tops)" if trunk else "clear of the scene"
-    return (
-        f"stance: no base pose found, {clear}, from which the hands reach phases {where} at {stance.pivot} "
-        f"({len(TURNS_DEG)} headings tried; not a proof that none exists): the robot may not get there"
-    )

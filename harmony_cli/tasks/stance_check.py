@@ -1,0 +1,97 @@
+"""A scene whose hands cannot work where the scenario puts them, refused before the robot moves (issue 14). Where the
+written stance at the box or at its goal is blocked (stance.py), a base pose that works there is searched for
+(stance_pose.py) from SEARCH's starts, the planning search's first; none found refuses the scene, naming the phases,
+the pivot and what blocks the written stance.
+
+Not a proof: each start is a local solve. Why refuse on it: in the randomised study (docs/results.md) each of the 28
+runs with a blocked stance that succeeded had a pose found from the planning search's 8 starts; each of the 4 with
+none failed (dropped, box off goal, tipped), and for two of them none is found from 300 starts either. A run that
+tries such a place squeezes a box it cannot reach, or drives about until its phase times out. Obstacles that move
+are left out: where one starts does not block a stance for good."""
+
+from __future__ import annotations
+
+from functools import partial
+
+import numpy as np
+
+from harmony_cli.maths.shapes import obstacle_shape, table_legs
+from harmony_cli.mpc.hand_plan import Obstacle
+from harmony_cli.mpc.plan_base import PlannedBase
+from harmony_cli.robot.model import Robot
+from harmony_cli.scenario import Scenario
+from harmony_cli.tasks.motion import centre_at
+from harmony_cli.tasks.stance import Stance, stances
+from harmony_cli.tasks.stance_plan import pivot_targets
+from harmony_cli.tasks.stance_pose import STARTS, stance_poses
+
+# the planning search's starts, then every 22.5 deg between them and nearer to and farther from the targets
+SEARCH = STARTS + tuple(
+    (float(turn), share)
+    for share in (1.0, 0.75, 1.25)
+    for turn in np.arange(-157.5, 180.1, 22.5)
+    if (turn, share) not in STARTS
+)
+
+
+def unposed(scenario: Scenario, robot: Robot) -> str | None:
+    """Why the hands cannot work where a blocked stance's phases put them (no base pose found from SEARCH's
+    starts), or None."""
+    still = scenario.model_copy(
+        update={
+            "world": scenario.world.model_copy(
+                update={"obstacles": [o for o in scenario.world.obstacles if o.motion is None]}
+            )
+        }
+    )
+    hands, offset = home_hands(robot)
+    for stance in written_stances(still, robot, hands, offset):
+        if stance.warning() is None:
+            continue
+        at_pivot = pivot_targets(still, robot, stance, offset)
+        if at_pivot is None or stance_poses(still, robot, *at_pivot[:2], first=True, starts=SEARCH):
+            continue
+        return f"{no_pose(stance, bool(scenario.robot.trunk), len(SEARCH))}; {stance.warning()}"
+    return None
+
+
+def no_pose(stance: Stance, trunk: bool, starts: int) -> str:
+    """That no base pose was found for a stance's phases from `starts` starts (`trunk`: the robot has one)."""
+    where = stance.phases[0] if len(stance.phases) == 1 else f"{stance.phases[0]} to {stance.phases[-1]}"
+    clear = "clear of the scene (the trunk out from under table tops)" if trunk else "clear of the scene"
+    return (
+        f"stance: no base pose found, {clear}, from which the hands reach phases {where} at {stance.pivot} "
+        f"({starts} starts searched; not a proof that none exists)"
+    )
+
+
+def home_hands(robot: Robot) -> tuple[np.ndarray, float]:
+    """The hands' positions at home (hands, 3) and the planner's heading offset [rad] (its heading is 0 at home)."""
+    p0, p1 = (p.ravel() for p, _ in robot.hand_poses_numeric(robot.home))
+    return np.array([p0, p1]), float(-np.arctan2(p1[1] - p0[1], p1[0] - p0[0]))
+
+
+def base_bodies(scenario: Scenario) -> tuple[list[Obstacle], list[str]]:
+    """What the footprint keeps clear of, as the whole-body MPC does, and their names: every obstacle (scenario
+    order; a moving one's true motion predicts) by its margin, every table leg by the base's."""
+    bodies = [
+        Obstacle(obstacle_shape(o), o.margin, partial(centre_at, o) if o.motion is not None else None)
+        for o in scenario.world.obstacles
+    ]
+    names = [f"obstacle {o.name}" for o in scenario.world.obstacles]
+    for table in scenario.world.tables:
+        legs = table_legs(table)
+        bodies += [Obstacle(leg, scenario.robot.base_margin) for leg in legs]
+        names += [f"table {table.name}'s leg"] * len(legs)
+    return bodies, names
+
+
+def written_stances(scenario: Scenario, robot: Robot, hands: np.ndarray, heading_offset: float) -> list[Stance]:
+    """Where the base stands to grip and to place as written (stance.py), among the bodies that stand still."""
+    circles = np.asarray(scenario.robot.footprint, dtype=float).reshape(-1, 3)
+    if len(circles) == 0:
+        return []
+    bodies, names = base_bodies(scenario)
+    still = [k for k, body in enumerate(bodies) if body.motion is None]
+    footprint = PlannedBase.at_home(circles, robot.home[list(robot.base_joints)], hands, [bodies[k] for k in still])
+    return stances(scenario, robot.hand_names, (footprint, [names[k] for k in still]), heading_offset)

@@ -1,0 +1,50 @@
+"""A scene whose hands cannot work where it puts them is refused before the robot moves (tasks/stance_check.py):
+a place behind an obstacle's margin for which no base pose is found; a blocked stance with a pose found, or one
+blocked only by where a moving obstacle starts, is not refused."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from typer.testing import CliRunner
+
+from harmony_cli.cli import app
+from harmony_cli.scenario import load_scenario
+from harmony_cli.tasks.scene_check import SceneCheck
+from harmony_cli.tasks.stance_check import SEARCH, home_hands, written_stances
+
+PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml"
+# the cylinder just in front of the drop table: the place is reached from its front only (study sample 97)
+PLACE_BEHIND = "world.obstacles.cylinder.position=[4.59,0.10,1.0]"
+GRIP_BESIDE = "world.obstacles.cylinder.position=[3.2,1.6,1.0]"  # the base stands turned beside it (a pose found)
+
+
+def test_harmony_run_refuses_a_place_no_base_pose_reaches_in_one_line_naming_the_phases_and_what_blocks_them(
+    tmp_path,
+):
+    result = CliRunner().invoke(app, ["run", str(PAPER), "--set", PLACE_BEHIND, "--out", str(tmp_path), "--quiet"])
+    assert result.exit_code == 1, result.output
+    assert len(result.output.strip().splitlines()) == 1
+    assert (
+        f"no base pose found, clear of the scene (the trunk out from under table tops), from which the hands "
+        f"reach phases carry to retreat at the box's goal ({len(SEARCH)} starts searched" in result.output
+    )
+    assert "inside obstacle cylinder's margin" in result.output
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["failure"] == "impossible"
+
+
+def test_a_blocked_grip_for_which_a_base_pose_is_found_passes_the_check():
+    scenario = load_scenario(PAPER, [GRIP_BESIDE])
+    check = SceneCheck(PAPER.parent)
+    robot = check.robot(scenario)
+    grip = next(s for s in written_stances(scenario, robot, *home_hands(robot)) if s.pivot == "the box")
+    assert grip.warning() is not None  # the written stance is blocked: the search ran
+    assert check(scenario) is None
+
+
+def test_a_place_blocked_only_where_a_moving_obstacle_starts_passes_the_check():
+    moving = "world.obstacles.cylinder.motion={velocity: [0.0, 0.5, 0.0], start: 0.0, stop: 4.0}"
+    scenario = load_scenario(PAPER, [PLACE_BEHIND, moving])
+    assert SceneCheck(PAPER.parent)(scenario) is None
