@@ -95,7 +95,8 @@ class SceneCheck:
 
     def unreachable(self, scenario: Scenario) -> str | None:
         """Why some phase's hand targets cannot be reached (no collision-free base pose has them all within the
-        arms' reach, or none the base can drive to from its start), or None."""
+        arms' reach, or none the base can drive to from its start, or, where the written stance is blocked, no base
+        pose found from which the hands work there: stance_check.py), or None."""
         if scenario.task is None:
             return None
         blocked, robot, spec = _static_outlines(scenario), self.robot(scenario), scenario.robot

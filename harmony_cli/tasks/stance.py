@@ -9,7 +9,8 @@ about its pivot (the box; the box's goal) that would clear the base, for the aut
 Turning the targets automatically was tried (issue 14): it changed which runs failed, not how many (the carry to
 a turned place twists the grip instead), so the turn is a suggestion. What harmony does instead for a blocked place
 is find a base pose that works there, route the carry through it and, near a blocked pivot, pull the chest to the
-angle of the pose found on the base's side (stance_pose.py, stance_plan.py)."""
+angle of the pose found on the base's side (stance_pose.py, stance_plan.py); where none is found, the scene check
+refuses the scene before the robot moves (stance_check.py)."""
 
 from __future__ import annotations
 

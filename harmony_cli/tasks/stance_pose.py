@@ -94,8 +94,8 @@ def stance_poses(
     behind = _behind(robot, home)
     middle = targets.mean(axis=(0, 1))[:2]
     found: list[tuple[np.ndarray, np.ndarray]] = []
-    for turn, share in starts:
-        yaw = float(headings[-1]) + np.deg2rad(turn)
+    for turn_deg, share in starts:
+        yaw = float(headings[-1]) + np.deg2rad(turn_deg)
         start = np.r_[middle - share * rot_z(np.asarray(yaw))[:2, :2] @ behind, yaw]
         with captured_output():
             out = solver(x0=np.r_[start, np.tile(home[free], len(targets))], lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
