@@ -206,3 +206,27 @@ def test_a_run_stopped_after_its_box_fell_counts_as_dropped_and_says_both():
     )
     at_end = summary | {"task": {"success": False, "failure": failure | {"category": "box off goal", "at_s": None}}}
     assert outcome(at_end) == "run failed: solver"  # judged at the end: the stop may be why
+
+
+def test_the_report_counts_the_scene_check_s_refusals_by_kind(tmp_path):
+    """report.md's scene-check line counts the refused draws by what refused them (the table's `rejected`)."""
+    overlap = "obstacle cylinder overlaps table pick_table (overlapping by 3.3 cm)"
+    unposed = "stance: no base pose found, clear of the scene, from which the hands reach phases carry to retreat"
+    table = pd.DataFrame(
+        {
+            "point": ["base"] * 3,
+            "sample": [0, 1, 2],
+            "success": [True, True, True],
+            "outcome": ["success"] * 3,
+            "reason": [""] * 3,
+            "resamples": [2, 0, 1],
+            "rejected": [json.dumps([overlap, unposed]), json.dumps([]), json.dumps([overlap])],
+            "run_dir": [str(tmp_path / f"runs/s{i}") for i in range(3)],
+        }
+    )
+    table.to_parquet(tmp_path / TABLE)
+    write_report(tmp_path)
+    assert (
+        "Scene check: 3 draws refused and drawn again over 3 samples: 2 an obstacle overlapping a table or the box, "
+        "1 no base pose found at a blocked stance." in (tmp_path / "report.md").read_text()
+    )

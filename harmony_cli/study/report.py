@@ -5,7 +5,9 @@ runs it again."""
 
 from __future__ import annotations
 
+import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -67,6 +69,35 @@ def success_rates(table: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(out)
 
 
+# a scene check's refusal (tasks/scene_check.py, tasks/stance_check.py) -> its kind, as the report counts them
+REFUSALS = (
+    (r"^stance: no base pose found", "no base pose found at a blocked stance"),
+    (r"^obstacle .* overlaps", "an obstacle overlapping a table or the box"),
+    (r"^obstacle .* from the robot's start", "an obstacle within its margin of the robot's start"),
+    (r"out of reach from every collision-free base pose", "a hand target out of reach"),
+    (r"no passage for the base", "no passage for the base"),
+)
+
+
+def refusal_kind(reason: str) -> str:
+    """The kind of a refused draw's reason (REFUSALS; anything else, e.g. validation: "other")."""
+    return next((kind for pattern, kind in REFUSALS if re.search(pattern, reason)), "other")
+
+
+def _refusals(table: pd.DataFrame) -> str:
+    """The scene check's line: how many draws it refused, and of what kind when the table says why."""
+    per_sample = table.groupby("sample").first()
+    refused = int(per_sample["resamples"].sum())
+    line = f"Scene check: {refused} draws refused and drawn again over {len(per_sample)} samples"
+    if "rejected" not in per_sample or not refused:
+        return line + "."
+    reasons = [
+        r for cell in per_sample["rejected"].dropna() for r in (json.loads(cell) if isinstance(cell, str) else cell)
+    ]
+    kinds = pd.Series([refusal_kind(r) for r in reasons]).value_counts()
+    return line + ": " + ", ".join(f"{n} {kind}" for kind, n in kinds.items()) + "."
+
+
 def _pct(x: float) -> str:
     return "-" if x != x else f"{100 * x:.0f} %"
 
@@ -89,8 +120,7 @@ def write_report(study: Path) -> list[Path]:
         lines += ["", f"{missing} runs have no result (interrupted or not run): not counted above."]
     counts = table.groupby(["point", "outcome"], sort=False).size().unstack(fill_value=0)
     lines += ["", "## Outcomes by category", "", _markdown(counts.reset_index())]
-    resamples = table.groupby("sample")["resamples"].first()
-    lines += ["", f"Scene check: {int(resamples.sum())} draws refused and drawn again over {len(resamples)} samples."]
+    lines += ["", _refusals(table)]
     lines += ["", "## Run metrics (median / p95 / max over runs with a value)", ""]
     lines += ["| metric | grid point | runs | median | p95 | max |", "|---|---|---:|---:|---:|---:|"]
     for column, what, scale, unit in METRICS:

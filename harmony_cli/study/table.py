@@ -76,6 +76,7 @@ def run_row(run: PlannedRun, run_dir: Path) -> dict[str, Any]:
         "success": result == "success" if summary.get("status") not in NOT_RUN else None,
         "reason": run_reason(summary),
         "resamples": len(run.sample.rejected),
+        "rejected": list(run.sample.rejected),  # why each earlier draw of the sample was refused
     }
     row |= {f"grid.{k}": v for k, v in run.point.items()}
     row |= flatten(run.sample.values, "vary")
