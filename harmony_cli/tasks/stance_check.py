@@ -37,13 +37,8 @@ SEARCH = STARTS + tuple(
 def unposed(scenario: Scenario, robot: Robot) -> str | None:
     """Why the hands cannot work where a blocked stance's phases put them (no base pose found from SEARCH's
     starts), or None."""
-    still = scenario.model_copy(
-        update={
-            "world": scenario.world.model_copy(
-                update={"obstacles": [o for o in scenario.world.obstacles if o.motion is None]}
-            )
-        }
-    )
+    standing = [o for o in scenario.world.obstacles if o.motion is None]
+    still = scenario.model_copy(update={"world": scenario.world.model_copy(update={"obstacles": standing})})
     hands, offset = home_hands(robot)
     for stance in written_stances(still, robot, hands, offset):
         if stance.warning() is None:
