@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from harmony_cli.scenario import load_scenario
+from harmony_cli.study.report import refusal_kind
 from harmony_cli.tasks.passage import narrowest_width
 from harmony_cli.tasks.scene_check import SceneCheck
 
@@ -50,6 +51,7 @@ def test_the_footprint_width_is_the_narrowest_over_directions():
 def test_a_closed_room_whose_gap_is_narrower_than_the_footprint_plus_margins_is_refused_with_the_width():
     why = _check(_gap(0.80, closed=True))
     assert why is not None and "no passage for the base" in why and "0.761 m" in why, why
+    assert refusal_kind(why) == "no passage for the base"  # as a study's report counts it
 
 
 def test_the_same_room_with_a_gap_wide_enough_passes():

@@ -10,9 +10,11 @@ from pathlib import Path
 from typer.testing import CliRunner
 
 from harmony_cli.cli import app
-from harmony_cli.scenario import load_scenario
+from harmony_cli.scenario import load_scenario, robot_of
+from harmony_cli.study.report import refusal_kind
+from harmony_cli.tasks import stance_check
 from harmony_cli.tasks.scene_check import SceneCheck
-from harmony_cli.tasks.stance_check import SEARCH, home_hands, written_stances
+from harmony_cli.tasks.stance_check import SEARCH, home_hands, unposed, written_stances
 
 PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml"
 # the cylinder just in front of the drop table: the place is reached from its front only (study sample 97)
@@ -48,3 +50,19 @@ def test_a_place_blocked_only_where_a_moving_obstacle_starts_passes_the_check():
     moving = "world.obstacles.cylinder.motion={velocity: [0.0, 0.5, 0.0], start: 0.0, stop: 4.0}"
     scenario = load_scenario(PAPER, [PLACE_BEHIND, moving])
     assert SceneCheck(PAPER.parent)(scenario) is None
+
+
+def test_the_search_for_a_blocked_place_leaves_out_an_obstacle_that_moves_and_the_report_knows_the_refusal(
+    monkeypatch,
+):
+    both = (
+        "world.obstacles=[{name: cylinder, shape: cylinder, position: [4.59, 0.10, 1.0], size: [1.2, 1.2, 2.0], "
+        "margin: 0.3}, {name: cart, shape: cylinder, position: [5.2, -0.9, 0.5], size: [0.4, 0.4, 1.0], margin: 0.1, "
+        "motion: {velocity: [0.0, 0.5, 0.0], start: 0.0, stop: 4.0}}]"
+    )
+    scenario = load_scenario(PAPER, [both])
+    searched = []  # the scenes the pose search is given (it finds none here: quick)
+    monkeypatch.setattr(stance_check, "stance_poses", lambda scene, *a, **k: searched.append(scene) or [])
+    why = unposed(scenario, robot_of(scenario, PAPER.parent))
+    assert why is not None and [[o.name for o in scene.world.obstacles] for scene in searched] == [["cylinder"]]
+    assert refusal_kind(why) == "no base pose found at a blocked stance"

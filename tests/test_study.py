@@ -21,7 +21,7 @@ from harmony_cli.cli import app
 from harmony_cli.experiment.run import run_scenario
 from harmony_cli.maths.shapes import obstacle_shape, table_shape
 from harmony_cli.study.plan import plan_runs
-from harmony_cli.study.report import wilson, write_report
+from harmony_cli.study.report import refusal_kind, wilson, write_report
 from harmony_cli.study.runner import Options, plan_study, run_study
 from harmony_cli.study.sampling import Sampler
 from harmony_cli.study.spec import base_scenario_path, load_study
@@ -59,6 +59,7 @@ def test_a_draw_with_an_obstacle_on_the_table_is_refused_drawn_again_and_counted
     samples = [sampler.sample(i) for i in range(12)]
     refused = [why for s in samples for why in s.rejected]
     assert refused and all("obstacle post overlaps table table" in why for why in refused), refused
+    assert {refusal_kind(why) for why in refused} == {"an obstacle overlapping a table or the box"}  # the report's
     for s in samples:  # what was kept is clear of the table
         scenario = sampler.scenario(s.overrides)
         assert sampler.check(scenario) is None

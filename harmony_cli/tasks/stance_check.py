@@ -11,16 +11,14 @@ are left out: where one starts does not block a stance for good."""
 
 from __future__ import annotations
 
-from functools import partial
-
 import numpy as np
 
-from harmony_cli.maths.shapes import obstacle_shape, table_legs
+from harmony_cli.maths.shapes import table_legs
 from harmony_cli.mpc.hand_plan import Obstacle
 from harmony_cli.mpc.plan_base import PlannedBase
 from harmony_cli.robot.model import Robot
 from harmony_cli.scenario import Scenario
-from harmony_cli.tasks.motion import centre_at
+from harmony_cli.tasks.motion import planned_obstacles
 from harmony_cli.tasks.stance import Stance, stances
 from harmony_cli.tasks.stance_plan import pivot_targets
 from harmony_cli.tasks.stance_pose import STARTS, stance_poses
@@ -69,10 +67,7 @@ def home_hands(robot: Robot) -> tuple[np.ndarray, float]:
 def base_bodies(scenario: Scenario) -> tuple[list[Obstacle], list[str]]:
     """What the footprint keeps clear of, as the whole-body MPC does, and their names: every obstacle (scenario
     order; a moving one's true motion predicts) by its margin, every table leg by the base's."""
-    bodies = [
-        Obstacle(obstacle_shape(o), o.margin, partial(centre_at, o) if o.motion is not None else None)
-        for o in scenario.world.obstacles
-    ]
+    bodies = planned_obstacles(scenario.world.obstacles, 0.0)
     names = [f"obstacle {o.name}" for o in scenario.world.obstacles]
     for table in scenario.world.tables:
         legs = table_legs(table)

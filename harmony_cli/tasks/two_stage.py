@@ -4,14 +4,13 @@ MPC's knots. It sees only the observation (hands, box pose) and the scenario's s
 from __future__ import annotations
 
 import time
-from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from harmony_cli.maths.rotations import heading_of
-from harmony_cli.maths.shapes import obstacle_shape, table_shape, table_top_pose
-from harmony_cli.mpc.hand_plan import HandState, Obstacle, PlannerResult
+from harmony_cli.maths.shapes import table_shape, table_top_pose
+from harmony_cli.mpc.hand_plan import HandState, PlannerResult
 from harmony_cli.mpc.plan_base import PlannedBase
 from harmony_cli.mpc.plan_seed import Ground
 from harmony_cli.mpc.planner import TaskPlanner
@@ -20,7 +19,7 @@ from harmony_cli.robot.observation import Observation
 from harmony_cli.robot.reach import hand_ceiling
 from harmony_cli.tasks.as_written import target_position
 from harmony_cli.tasks.clear_goal import FARTHEST, cleared
-from harmony_cli.tasks.motion import centre_at
+from harmony_cli.tasks.motion import planned_obstacles
 from harmony_cli.tasks.passage import narrowest_width
 from harmony_cli.tasks.schedule import ActivePhase, Schedule
 from harmony_cli.tasks.stance_check import base_bodies, home_hands, no_pose, written_stances
@@ -42,14 +41,7 @@ class TaskReferences:
         self.schedule = Schedule(scenario.task, robot.hand_names, scenario.admittance)
         self.home_rotations = np.array([r for _, r in robot.hand_poses_numeric(robot.home)])
         hands, offset = home_hands(robot)  # home heading is 0 (base yaw 0 at home)
-        obstacles = [
-            Obstacle(
-                obstacle_shape(o),
-                o.margin + scenario.planner.hand_radius,
-                partial(centre_at, o) if o.motion is not None else None,
-            )  # the true motion predicts
-            for o in scenario.world.obstacles
-        ]
+        obstacles = planned_obstacles(scenario.world.obstacles, scenario.planner.hand_radius)
         base = _planned_base(scenario, robot.home[list(robot.base_joints)], hands)
         width = _grip_width(scenario, robot, hands)
         self.ceiling = hand_ceiling(robot, width)
