@@ -213,7 +213,7 @@ def test_phase_too_short_for_the_bounds_stretches_the_horizon_and_keeps_the_spee
     np.testing.assert_allclose(result.plan.sample(np.array([horizon]))[0][0], goal, atol=1e-9)
 
 
-def _every_stretch_in_turn(planner, C, t, T, ends, carried, width):
+def _every_stretch_in_turn(planner, C, t, T, ends, carried, width, early=False):
     """The search as it was: every stretch in turn, then every stretch relaxed (the first that solves)."""
     from harmony_cli.mpc.phase_start import STRETCHES
     from harmony_cli.mpc.plan_seed import fix_ends
@@ -247,7 +247,7 @@ def test_the_stretch_search_finds_the_plan_that_trying_every_stretch_in_turn_fin
 
 def test_a_phase_s_first_plan_that_wants_a_route_gets_it_on_the_next_step():
     planner = TaskPlanner(SPEC, [_cylinder(0.0)], HOME, OFFSET)
-    args = (HandState(START, np.zeros((2, 3)), 0.0), GOAL, PHASE_END, 0, CARRYING)
+    args = (HandState(START, np.zeros((2, 3)), 0.0), GOAL, PHASE_END, 0, None)  # the hands' SQP converges, split
     first = planner.step(0.0, *args)
     assert not first.status.endswith("(route)") and planner.route_pending  # one SQP on this step
     solves, solve = [], planner._solve
@@ -255,6 +255,16 @@ def test_a_phase_s_first_plan_that_wants_a_route_gets_it_on_the_next_step():
     second = planner.step(0.02, *args)
     assert second.status.endswith("(route)") and not planner.route_pending
     assert len(solves) == 1  # the route's SQP alone on that step, not the plan's own step as well
+
+
+def test_a_blocked_straight_line_from_a_clear_start_takes_the_plan_the_next_step_s_route_would(monkeypatch):
+    # carried, the box cannot pass the cylinder on the straight line within any usual horizon: the route at once
+    planner, now = _plan([_cylinder(0.0)], carrying=CARRYING)
+    assert now.status.endswith("(route)") and not planner.route_pending
+    monkeypatch.setattr("harmony_cli.mpc.phase_start.starts_clear", lambda *args: False)  # the route a step later
+    planner, later = _plan([_cylinder(0.0)], carrying=CARRYING)
+    assert later.status == now.status
+    np.testing.assert_array_equal(later.plan.control_points, now.plan.control_points)
 
 
 @pytest.mark.parametrize("side", [1.0, -1.0])

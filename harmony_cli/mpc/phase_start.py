@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
-from harmony_cli.mpc.plan_checks import rank
+from harmony_cli.mpc.plan_checks import is_clean, rank, starts_clear
 from harmony_cli.mpc.plan_seed import fix_ends, on_route, straight_to
 
 if TYPE_CHECKING:
@@ -21,12 +21,13 @@ if TYPE_CHECKING:
 STRETCHES = (1.0, 1.5, 2.25, 3.5, 5.0)  # horizon factors tried when the rate bounds cannot be met in time
 
 
-def first_step(planner: TaskPlanner, C: np.ndarray, t: float, T: float, ends: Ends, carried, width: float):
+def first_step(planner: TaskPlanner, C: np.ndarray, t: float, T: float, ends: Ends, carried, width: float, early=False):
     """The SQP's first step from `C` (the planner's _sqp_step output), the horizon's stretch and whether relaxed.
     The measured start may not allow reaching the goal at rest within the rate bounds by the phase's end (the hands
     lag, the phase is short): then the smallest stretch that works. Last, the clearance rows violated now (the hands
     inside a margin, linearisations that contradict) ask only not to get worse. When the first two fail and the
-    longest fails too, the ones between are not tried."""
+    longest fails too, the ones between are not tried. `early`: None when the first two fail (something is in the
+    way, most likely: the caller tries a route before the rest)."""
 
     def attempt(stretch: float, relaxed: bool = False):
         fix_ends(C, *ends, T * stretch)
@@ -35,6 +36,8 @@ def first_step(planner: TaskPlanner, C: np.ndarray, t: float, T: float, ends: En
     for stretch in STRETCHES[:2]:  # the horizon as it is, then the stretch most starts need
         if (out := attempt(stretch))[0] is not None:
             return out, stretch, False
+    if early:
+        return None
     tries = [(s, False) for s in STRETCHES[2:]] if attempt(STRETCHES[-1])[0] is not None else []
     relaxed = False
     for stretch, relaxed in tries + [(s, True) for s in STRETCHES]:
@@ -59,3 +62,25 @@ def on_route_plan(
     if solved is None or (via is not None and seeded.success):
         return seeded
     return seeded if rank(seeded, planner.B, planner.obstacles) > rank(solved, planner.B, planner.obstacles) else solved
+
+
+def first_plan(planner: TaskPlanner, C, t: float, T: float, ends: Ends, iterations: int, carried, width, fresh, now):
+    """The SQP from the straight line `C`, or, on a phase's first step from a clear start where its usual horizons
+    fail (something in the way, most likely), from its route first, the straight line's other horizons if that
+    fails: one SQP on that step, none on the next (static_obstacles' slide: 6 ms, not 6.7 then 7.6). Otherwise a
+    plan that is not clean asks for a route on the next step (one SQP a step), a failed one tries it now. A start
+    inside a margin keeps the straight line's relaxed rows (never deeper), which a route would not."""
+    obstacles = planner.obstacles
+    early = fresh and bool(obstacles) and starts_clear(obstacles, ends[0].positions, t, planner._reliefs, carried)
+    straight = planner._solve(C, t, T, ends, iterations, carried, width, early)
+    if straight is None:
+        routed = on_route_plan(planner, None, t, T, ends, carried, width)
+        if routed is not None and routed.success:
+            return routed
+        straight = planner._solve(C, t, T, ends, iterations, carried, width)
+        return straight if routed is None or straight.success else routed
+    if fresh and straight.success:
+        planner._route_next = bool(obstacles) and not is_clean(straight, planner.B, obstacles)
+    elif obstacles and not straight.success and not now:
+        return on_route_plan(planner, straight, t, T, ends, carried, width) or straight
+    return straight

@@ -1,5 +1,6 @@
 """What the planner asks of a phase's first plan before it takes it (and ranks two plans by): the hands pass
-every obstacle on one side with their clearance; and how far a phase's goal itself lies inside a clearance."""
+every obstacle on one side with their clearance; whether they start clear; and how far a phase's goal itself lies
+inside a clearance."""
 
 from __future__ import annotations
 
@@ -23,6 +24,20 @@ def keeps_shape(solved: Solved, basis: np.ndarray, obstacles: list[Obstacle]) ->
         if obstacle.motion is None and obstacle.shape.distance(between)[0].min() < 0.0:
             return False
     return solved.clearance >= -CLEARANCE_SLACK and solved.base_clearance >= -BASE_SLACK
+
+
+def starts_clear(obstacles: list[Obstacle], hands: np.ndarray, t: float, reliefs: np.ndarray, carried) -> bool:
+    """Whether the `hands` (2, 3) at time t (and the object carried between them: radius, drop) are outside every
+    obstacle's clearance, less its `reliefs` (goal_reliefs)."""
+    point = hands.mean(axis=0) - [0.0, 0.0, carried[1] if carried else 0.0]
+    for obstacle, relief in zip(obstacles, reliefs):
+        moved = 0.0 if obstacle.motion is None else obstacle.motion(np.array([t]))[0] - obstacle.shape.centre
+        need = obstacle.clearance - relief
+        if obstacle.shape.distance(hands - moved)[0].min() < need:
+            return False
+        if carried and obstacle.shape.grown(carried[0]).distance(point[None] - moved)[0][0] < need:
+            return False
+    return True
 
 
 def converged(solved: Solved) -> bool:

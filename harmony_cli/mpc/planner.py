@@ -36,9 +36,9 @@ from harmony_cli.mpc.codegen import Buffered
 from harmony_cli.mpc.distance_code import CompiledDistance
 from harmony_cli.mpc.footprint_code import CompiledMargins
 from harmony_cli.mpc.hand_plan import ROWS, Ends, HandState, Obstacle, Plan, PlannerResult, Solved
-from harmony_cli.mpc.phase_start import first_step, on_route_plan
+from harmony_cli.mpc.phase_start import first_plan, first_step, on_route_plan
 from harmony_cli.mpc.plan_base import PlannedBase
-from harmony_cli.mpc.plan_checks import goal_reliefs, is_clean
+from harmony_cli.mpc.plan_checks import goal_reliefs
 from harmony_cli.mpc.plan_seed import Ground, straight_to, warm_outlines
 from harmony_cli.mpc.problem import NoPlanToHold
 
@@ -180,11 +180,7 @@ class TaskPlanner:
         # plan wanted a route: its route's SQP alone (one SQP a step), the plan's own step if it fails
         solved = on_route_plan(self, None, t, T, ends, carried, width, via) if via is not None or route_now else None
         if solved is None or not solved.success:
-            solved = self._solve(C, t, T, ends, iterations, carried, width)
-            if fresh and solved.success:  # a route, if this plan wants one, on the next step: one SQP a step
-                self._route_next = bool(self.obstacles) and not is_clean(solved, self.B, self.obstacles)
-            elif self.obstacles and not solved.success and not route_now:
-                solved = on_route_plan(self, solved, t, T, ends, carried, width) or solved
+            solved = first_plan(self, C, t, T, ends, iterations, carried, width, fresh, route_now)
         C, success, status = solved.C, solved.success, solved.status
         if success and not np.isfinite(C).all():  # NaN / inf never becomes the plan: the last one is held
             success, status = False, "non-finite plan"
@@ -197,10 +193,14 @@ class TaskPlanner:
             plan, success, status, solved.iterations, time.perf_counter() - start_time, solved.clearance
         )
 
-    def _solve(self, C: np.ndarray, t: float, T: float, ends: Ends, iterations: int, carried, width: float) -> Solved:
-        """Gauss-Newton SQP from `C` (changed in place) towards `ends` = (state, goal, goal heading)."""
+    def _solve(self, C: np.ndarray, t: float, T: float, ends: Ends, iterations: int, carried, width, early=False):
+        """Gauss-Newton SQP from `C` (changed in place) towards `ends` = (state, goal, goal heading); None if `early`
+        and the horizon as it is and its usual stretch both fail (first_step)."""
         success, it = True, 0
-        (step, clearance, base_clearance, status), stretch, relaxed = first_step(self, C, t, T, ends, carried, width)
+        first = first_step(self, C, t, T, ends, carried, width, early)
+        if first is None:
+            return None
+        (step, clearance, base_clearance, status), stretch, relaxed = first
         T *= stretch
         suffix = f" (horizon stretched x{stretch:g})" if stretch > 1 else ""
         suffix += " (clearance relaxed)" if relaxed else ""
