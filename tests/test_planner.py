@@ -213,7 +213,7 @@ def test_phase_too_short_for_the_bounds_stretches_the_horizon_and_keeps_the_spee
     np.testing.assert_allclose(result.plan.sample(np.array([horizon]))[0][0], goal, atol=1e-9)
 
 
-def _every_stretch_in_turn(planner, C, t, T, ends, carried, width, early=False):
+def _every_stretch_in_turn(planner, C, t, T, ends, carried, width, blocked=None):
     """The search as it was: every stretch in turn, then every stretch relaxed (the first that solves)."""
     from harmony_cli.mpc.phase_start import STRETCHES
     from harmony_cli.mpc.plan_seed import fix_ends
@@ -257,12 +257,17 @@ def test_a_phase_s_first_plan_that_wants_a_route_gets_it_on_the_next_step():
     assert len(solves) == 1  # the route's SQP alone on that step, not the plan's own step as well
 
 
-def test_a_blocked_straight_line_from_a_clear_start_takes_the_plan_the_next_step_s_route_would(monkeypatch):
-    # carried, the box cannot pass the cylinder on the straight line within any usual horizon: the route at once
-    planner, now = _plan([_cylinder(0.0)], carrying=CARRYING)
+def test_a_blocked_line_from_a_clear_start_gets_at_once_the_route_a_later_step_would(monkeypatch):
+    # carried, the box cannot pass the cylinder on the straight line within the usual horizons: after the line's
+    # first two QPs fail, its route at once, and the same plan as the route the line's other failures lead to
+    planner = TaskPlanner(SPEC, [_cylinder(0.0)], HOME, OFFSET)
+    statuses, sqp_step = [], planner._sqp_step
+    planner._sqp_step = lambda *a, **k: statuses.append((out := sqp_step(*a, **k))[3]) or out  # type: ignore
+    now = planner.step(0.0, HandState(START, np.zeros((2, 3)), 0.0), GOAL, PHASE_END, 0, CARRYING)
     assert now.status.endswith("(route)") and not planner.route_pending
-    monkeypatch.setattr("harmony_cli.mpc.phase_start.starts_clear", lambda *args: False)  # the route a step later
-    planner, later = _plan([_cylinder(0.0)], carrying=CARRYING)
+    assert sum(status.startswith("qp_failed") for status in statuses) == 2  # the horizon as it is, then x1.5
+    monkeypatch.setattr("harmony_cli.mpc.phase_start.starts_clear", lambda *args: False)  # the line's ladder
+    later = _plan([_cylinder(0.0)], carrying=CARRYING)[1]
     assert later.status == now.status
     np.testing.assert_array_equal(later.plan.control_points, now.plan.control_points)
 

@@ -21,13 +21,13 @@ if TYPE_CHECKING:
 STRETCHES = (1.0, 1.5, 2.25, 3.5, 5.0)  # horizon factors tried when the rate bounds cannot be met in time
 
 
-def first_step(planner: TaskPlanner, C: np.ndarray, t: float, T: float, ends: Ends, carried, width: float, early=False):
+def first_step(planner: TaskPlanner, C: np.ndarray, t: float, T: float, ends: Ends, carried, width, blocked=None):
     """The SQP's first step from `C` (the planner's _sqp_step output), the horizon's stretch and whether relaxed.
     The measured start may not allow reaching the goal at rest within the rate bounds by the phase's end (the hands
     lag, the phase is short): then the smallest stretch that works. Last, the clearance rows violated now (the hands
     inside a margin, linearisations that contradict) ask only not to get worse. When the first two fail and the
-    longest fails too, the ones between are not tried. `early`: None when the first two fail (something is in the
-    way, most likely: the caller tries a route before the rest)."""
+    longest fails too, the ones between are not tried. None when the first two fail and `blocked` (if given) says
+    yes: the caller tries a route before the rest."""
 
     def attempt(stretch: float, relaxed: bool = False):
         fix_ends(C, *ends, T * stretch)
@@ -36,7 +36,7 @@ def first_step(planner: TaskPlanner, C: np.ndarray, t: float, T: float, ends: En
     for stretch in STRETCHES[:2]:  # the horizon as it is, then the stretch most starts need
         if (out := attempt(stretch))[0] is not None:
             return out, stretch, False
-    if early:
+    if blocked is not None and blocked():
         return None
     tries = [(s, False) for s in STRETCHES[2:]] if attempt(STRETCHES[-1])[0] is not None else []
     relaxed = False
@@ -54,7 +54,8 @@ def on_route_plan(
     if it ranks above `solved` (if any) or, through `via`, succeeds; `solved` when there is no route."""
     C = straight_to(ends, planner.M)
     fix_ends(C, *ends, T)
-    moved = on_route(C, ends, planner.obstacles, carried, planner.ground, via, (planner.B, planner.s, planner.free))
+    sampling = (planner.B, planner.s, planner.free, planner.fit)
+    moved = on_route(C, ends, planner.obstacles, carried, planner.ground, via, sampling)
     if moved is None:  # no way round, or nothing in the way: nothing to seed
         return solved
     seeded = planner._solve(moved, t, T, ends, planner.spec.phase_iterations, carried, width)
@@ -65,14 +66,21 @@ def on_route_plan(
 
 
 def first_plan(planner: TaskPlanner, C, t: float, T: float, ends: Ends, iterations: int, carried, width, fresh, now):
-    """The SQP from the straight line `C`, or, on a phase's first step from a clear start where its usual horizons
-    fail (something in the way, most likely), from its route first, the straight line's other horizons if that
-    fails: one SQP on that step, none on the next (static_obstacles' slide: 6 ms, not 6.7 then 7.6). Otherwise a
+    """The SQP from the straight line `C`, or, on a phase's first step where the horizon as it is and its usual
+    stretch both fail from a clear start (an obstacle in the way, most likely), from its route first, the line's
+    other horizons if that fails: one SQP on that step (static_obstacles' slide), none on the next. Otherwise a
     plan that is not clean asks for a route on the next step (one SQP a step), a failed one tries it now. A start
-    inside a margin keeps the straight line's relaxed rows (never deeper), which a route would not."""
-    obstacles = planner.obstacles
-    early = fresh and bool(obstacles) and starts_clear(obstacles, ends[0].positions, t, planner._reliefs, carried)
-    straight = planner._solve(C, t, T, ends, iterations, carried, width, early)
+    inside a margin keeps the straight line's relaxed rows (never deeper), which a route would not. (A route
+    after the first failure alone, where the line enters an obstacle the hands cannot rise above, took one QP
+    less but also took dynamic_obstacle's carry off the line the SQP bends round the cylinder: box 0.36 cm from
+    its goal, was 0.17.)"""
+    obstacles, blocked = planner.obstacles, None
+    if fresh and obstacles:
+
+        def blocked() -> bool:
+            return starts_clear(obstacles, ends[0].positions, t, planner._reliefs, carried)
+
+    straight = planner._solve(C, t, T, ends, iterations, carried, width, blocked)
     if straight is None:
         routed = on_route_plan(planner, None, t, T, ends, carried, width)
         if routed is not None and routed.success:

@@ -14,7 +14,7 @@ import numpy as np
 
 from harmony_cli.maths.rotations import rot_z
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.mpc.route import Route, footprint, plan_route
+from harmony_cli.mpc.route import Route, footprint, plan_route, warm_search
 from harmony_cli.mpc.visibility import polygon_of
 
 if TYPE_CHECKING:
@@ -141,9 +141,12 @@ def warm_outlines(obstacles: list[Obstacle], ground: Ground | None) -> None:
     """route_around's outlines of the static obstacles and the tables when the base's half width is the widest
     reach (EVA: 0.38 m against a 0.22 m box), and their geometry for the visibility tests, computed ahead
     (route.footprint and visibility.polygon_of keep them): a phase's first route, inside a control step, then
-    finds them ready (static_obstacles: 2-3 ms of its slowest step)."""
+    finds them ready (static_obstacles: 2-3 ms of its slowest step), and the search's code warm (a planner with
+    obstacles asks for routes)."""
     if ground is None:
         return
+    if obstacles:
+        warm_search()
     for obstacle in obstacles:
         if obstacle.motion is None:
             polygon_of(footprint(obstacle.shape, obstacle.clearance + ground.base_radius))
@@ -154,20 +157,28 @@ def warm_outlines(obstacles: list[Obstacle], ground: Ground | None) -> None:
 def on_route(C, ends, obstacles, carried, ground, via, sampling) -> np.ndarray | None:
     """`C` (the straight line's control points, its ends fixed) moved onto the route from the measured hands to the
     goal (`ends`: state, goal, heading) through `via` (route_around); None when there is no way round or nothing in
-    the way. `sampling`: the planner's basis (S, M), sample parameters (S,) and free columns (7, M)."""
+    the way. `sampling`: the planner's basis (S, M), sample parameters (S,), free columns (7, M) and least-squares
+    fit (free columns, S) (fit_matrix)."""
     state, goal, heading = ends
     route = route_around(obstacles, state.positions, goal, carried, ground, via, (state.heading, heading))
     return None if route is None or len(route.points) == 2 else moved_onto(C, route, *sampling)
 
 
-def moved_onto(C: np.ndarray, route: Route, basis: np.ndarray, s: np.ndarray, free: np.ndarray) -> np.ndarray:
+def fit_matrix(basis: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """The least-squares fit (free columns, S) of a shift at the samples by the free control points of a curve with
+    `basis` (S, M): computed once, when the planner is built (np.linalg.lstsq inside a control step cost 1.4-2.2 ms
+    on its first call in `make bench`'s process, LAPACK's set-up; this product costs microseconds)."""
+    return np.linalg.pinv(basis[:, free[0]])
+
+
+def moved_onto(C: np.ndarray, route: Route, basis: np.ndarray, s: np.ndarray, free: np.ndarray, fit: np.ndarray):
     """`C` (straight-line control points) with both hands' free columns moved so that their midpoint follows
-    `route` at the sample parameters `s` (least squares through `basis` (len(s), M)); fixed columns stay."""
+    `route` at the sample parameters `s` (least squares: `fit`, fit_matrix of `basis` (len(s), M)); fixed columns
+    stay."""
     midpoint = 0.5 * (C[0:2] + C[3:5]) @ basis.T  # (2, S) the straight line's midpoint at the samples
-    shift = route.at(s).T - midpoint
+    fitted = (route.at(s).T - midpoint) @ fit.T  # (2, free columns)
     columns = free[0]
-    fitted = np.linalg.lstsq(basis[:, columns], shift.T, rcond=None)[0]  # (free columns, 2)
     moved = C.copy()
-    moved[0:2, columns] += fitted.T
-    moved[3:5, columns] += fitted.T
+    moved[0:2, columns] += fitted
+    moved[3:5, columns] += fitted
     return moved

@@ -39,7 +39,7 @@ from harmony_cli.mpc.hand_plan import ROWS, Ends, HandState, Obstacle, Plan, Pla
 from harmony_cli.mpc.phase_start import first_plan, first_step, on_route_plan
 from harmony_cli.mpc.plan_base import PlannedBase
 from harmony_cli.mpc.plan_checks import goal_reliefs
-from harmony_cli.mpc.plan_seed import Ground, straight_to, warm_outlines
+from harmony_cli.mpc.plan_seed import Ground, fit_matrix, straight_to, warm_outlines
 from harmony_cli.mpc.problem import NoPlanToHold
 
 if TYPE_CHECKING:
@@ -70,6 +70,7 @@ class TaskPlanner:
         self.n_free = int(self.free.sum())
         s = self.s = np.linspace(0.0, 1.0, spec.samples + 1)[1:]  # obstacle and facing samples (s = 0 is fixed)
         self.B = bernstein_basis(M, s)  # (S, M)
+        self.fit = fit_matrix(self.B, self.free)  # a route's least-squares fit (plan_seed.py)
         self._s_start = np.r_[0.0, s]
         self._B_start = bernstein_basis(M, self._s_start)  # the start too (the base's reliefs)
         D1, D2 = difference_matrix(M, 1), difference_matrix(M, 2)
@@ -193,11 +194,11 @@ class TaskPlanner:
             plan, success, status, solved.iterations, time.perf_counter() - start_time, solved.clearance
         )
 
-    def _solve(self, C: np.ndarray, t: float, T: float, ends: Ends, iterations: int, carried, width, early=False):
-        """Gauss-Newton SQP from `C` (changed in place) towards `ends` = (state, goal, goal heading); None if `early`
-        and the horizon as it is and its usual stretch both fail (first_step)."""
+    def _solve(self, C: np.ndarray, t: float, T: float, ends: Ends, iterations: int, carried, width, blocked=None):
+        """Gauss-Newton SQP from `C` (changed in place) towards `ends` = (state, goal, goal heading); None when its
+        first step says the line is `blocked` (first_step)."""
         success, it = True, 0
-        first = first_step(self, C, t, T, ends, carried, width, early)
+        first = first_step(self, C, t, T, ends, carried, width, blocked)
         if first is None:
             return None
         (step, clearance, base_clearance, status), stretch, relaxed = first
