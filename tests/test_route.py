@@ -138,3 +138,17 @@ def test_the_segment_taken_when_clear_is_the_route_the_full_graph_finds_on_rando
         if expected is not None:
             np.testing.assert_allclose(got.points, expected.points, atol=1e-12)
             assert abs(got.length - expected.length) < 1e-9
+
+
+def test_a_route_s_fit_by_the_matrix_built_with_the_planner_equals_numpy_s_least_squares():
+    # the planner's control points fitted to a shift at its samples: the pseudo-inverse made once (plan_seed) against
+    # np.linalg.lstsq solved each time, as the fit was before
+    from harmony_cli.maths.bezier import bernstein_basis
+    from harmony_cli.mpc.plan_seed import fit_matrix
+
+    M, samples = 11, np.linspace(0.0, 1.0, 21)[1:]
+    basis, free = bernstein_basis(M, samples), np.zeros((7, M), dtype=bool)
+    free[:, 2 : M - 3] = True
+    shift = np.random.default_rng(5).normal(size=(len(samples), 2))
+    expected = np.linalg.lstsq(basis[:, free[0]], shift, rcond=None)[0]
+    np.testing.assert_allclose(fit_matrix(basis, free) @ shift, expected, atol=1e-12)

@@ -2,7 +2,7 @@
 rate bounds), relaxed clearance rows (a start inside a margin) and a route round the obstacles (global guidance),
 each at a bounded cost per control step: a QP that fails costs as much as a few that solve, and a route's SQP runs
 on the step after the straight line's instead of that plan's own step, or instead of the straight line's when the
-phase has a point to pass (planner.py)."""
+phase has a point to pass or the line's first two QPs fail from a clear start (planner.py)."""
 
 from __future__ import annotations
 

@@ -11,16 +11,16 @@ clearance, linearised at the current plan, where the obstacle is at that time. G
 control points, one DAQP QP per iteration: `phase_iterations` at a phase change, `iterations` (1: real-time
 iteration) on every other step; the horizon is stretched when the bounds cannot be met by the phase's end.
 
-Hands below the arms' reach with the pads level (robot/reach.py): a bound on the z control points. The base follows
-the hands: soft rows keep its footprint, carried behind the hands as at home, clear of the obstacles and table legs
-(plan_base.py). Global guidance: a local SQP linearised at the straight line cannot find its way round an obstacle
-on it. When a phase's first plan does not converge, misses a clearance or splits the hands, the next step runs,
-instead of that plan's own step, the SQP from the straight line moved onto the shortest planar route round
-obstacles and tables, wide enough for the base (plan_seed, route.py), and takes it if it succeeds (status "...
-(route)"; the plan's own step if not); a failed plan tries the route at once and takes it if it ranks higher. A
-phase whose first plan has a point to pass (`via`: a base pose that works at a blocked stance, tasks/stance_pose.py)
-gets the route through it at once, without the straight line's SQP (which leads to the blocked side): one SQP a
-control step (phase_start.py).
+Hands below the arms' reach with the pads level (robot/reach.py): a bound on the z control points. The base follows the
+hands: soft rows keep its footprint, carried behind the hands as at home, clear of the obstacles and table legs
+(plan_base.py). Global guidance: a local SQP linearised at the straight line cannot find its way round an obstacle on
+it. When a phase's first plan does not converge, misses a clearance or splits the hands, the next step runs, instead of
+that plan's own step, the SQP from the straight line moved onto the shortest planar route round obstacles and tables,
+wide enough for the base (plan_seed, route.py), and takes it if it succeeds (status "... (route)"; the plan's own step
+if not); a failed plan tries the route at once and takes it if it ranks higher; a first plan from a clear start whose
+first two QPs fail tries it before its other horizons and takes it if it succeeds. A phase whose first plan has a point
+to pass (`via`: a base pose that works at a blocked stance, tasks/stance_pose.py) gets the route through it at once,
+without the straight line's SQP (which leads to the blocked side): one SQP a control step (phase_start.py).
 """
 
 from __future__ import annotations

@@ -23,7 +23,6 @@ from harmony_cli.maths.shapes import Shape
 from harmony_cli.mpc.visibility import OUTSET, Polygon, inside, polygon_of, tangent, visible
 
 SIDES = 16  # polygon sides of a grown round shape or corner
-WARM_CALLS = 8  # CPython (3.11+) specialises a function's bytecode after its first few calls
 
 
 @dataclass(frozen=True)
@@ -87,16 +86,6 @@ def plan_route(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray]) 
         node = int(previous[node])
         path.append(node)
     return _route(np.vstack([start, nodes[path[::-1]], goal]))
-
-
-def warm_search() -> None:
-    """The graph search run WARM_CALLS times round a grown square before the loop. A phase asks for one route, inside
-    a control step, so its code would run there unspecialised and cache-cold: `make bench`'s static_obstacles spent
-    1.8-2.6 ms on its route (1.2 ms warm); in a fresh process, one route took 3.0 ms after one warm-up call and 1.9
-    after three (2026-11-27, AMD EPYC)."""
-    square = footprint(Shape("box", np.zeros(3), 0.0, np.full(3, 0.5)), 0.1)
-    for _ in range(WARM_CALLS):
-        plan_route(np.array([-2.0, 0.1]), np.array([2.0, 0.0]), [square])
 
 
 def _direct(first: np.ndarray, last: np.ndarray, blocking: list[Polygon]) -> bool:
