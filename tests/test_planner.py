@@ -247,7 +247,7 @@ def test_the_stretch_search_finds_the_plan_that_trying_every_stretch_in_turn_fin
 
 def test_a_phase_s_first_plan_that_wants_a_route_gets_it_on_the_next_step():
     planner = TaskPlanner(SPEC, [_cylinder(0.0)], HOME, OFFSET)
-    args = (HandState(START, np.zeros((2, 3)), 0.0), GOAL, PHASE_END, 0, None)  # the hands' SQP converges, split
+    args = (HandState(START, np.zeros((2, 3)), 0.0), GOAL, PHASE_END, 0, None)  # free hands: succeeds, not clean
     first = planner.step(0.0, *args)
     assert not first.status.endswith("(route)") and planner.route_pending  # one SQP on this step
     solves, solve = [], planner._solve
