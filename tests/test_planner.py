@@ -213,7 +213,7 @@ def test_phase_too_short_for_the_bounds_stretches_the_horizon_and_keeps_the_spee
     np.testing.assert_allclose(result.plan.sample(np.array([horizon]))[0][0], goal, atol=1e-9)
 
 
-def _every_stretch_in_turn(planner, C, t, T, ends, carried, width, blocked=None):
+def _every_stretch_in_turn(planner, C, t, T, ends, carried, width, blocked=None, skip=0):
     """The search as it was: every stretch in turn, then every stretch relaxed (the first that solves)."""
     from harmony_cli.mpc.phase_start import STRETCHES
     from harmony_cli.mpc.plan_seed import fix_ends
@@ -235,6 +235,8 @@ NEAR_START = Obstacle(Shape("cylinder", np.array([0.76, 0.5, 1.0]), 0.0, np.arra
         (dict(goal=START + [2.0, 0.0, 0.0], phase_end=0.3), "horizon stretched"),  # the rate bounds
         (dict(goal=START + [0.5, 0.0, 0.0], phase_end=0.3), "horizon stretched"),
         (dict(obstacles=[NEAR_START], phase_end=1.0), "clearance relaxed"),  # hand 0 starts 8 cm inside a margin
+        # from a clear start the first two fail, a route is looked for (none: nothing in the way), the ladder resumes
+        (dict(obstacles=[_cylinder(2.0)], goal=START + [2.0, 0.0, 0.0], phase_end=0.3), "horizon stretched"),
     ],
 )
 def test_the_stretch_search_finds_the_plan_that_trying_every_stretch_in_turn_finds(case, expected, monkeypatch):
@@ -270,6 +272,17 @@ def test_a_blocked_line_from_a_clear_start_gets_at_once_the_route_a_later_step_w
     later = _plan([_cylinder(0.0)], carrying=CARRYING)[1]
     assert later.status == now.status
     np.testing.assert_array_equal(later.plan.control_points, now.plan.control_points)
+
+
+def test_a_line_no_route_helps_tries_each_horizon_once():
+    # the first two horizons fail from a clear start, the route finds nothing in the way: the ladder goes on, not anew
+    planner = TaskPlanner(SPEC, [_cylinder(2.0)], HOME, OFFSET)
+    horizons, sqp_step = [], planner._sqp_step
+    planner._sqp_step = lambda C, t, T, *a: horizons.append(round(T, 9)) or sqp_step(C, t, T, *a)  # type: ignore
+    result = planner.step(0.0, HandState(START, np.zeros((2, 3)), 0.0), START + [2.0, 0.0, 0.0], 0.3, 0, None)
+    assert "horizon stretched" in result.status
+    T = horizons[0]  # the horizon as it is
+    assert horizons.count(T) == horizons.count(1.5 * T) == 1 and 2.25 * T in horizons
 
 
 @pytest.mark.parametrize("side", [1.0, -1.0])

@@ -21,19 +21,21 @@ if TYPE_CHECKING:
 STRETCHES = (1.0, 1.5, 2.25, 3.5, 5.0)  # horizon factors tried when the rate bounds cannot be met in time
 
 
-def first_step(planner: TaskPlanner, C: np.ndarray, t: float, T: float, ends: Ends, carried, width, blocked=None):
+def first_step(
+    planner: TaskPlanner, C: np.ndarray, t: float, T: float, ends: Ends, carried, width, blocked=None, skip=0
+):
     """The SQP's first step from `C` (the planner's _sqp_step output), the horizon's stretch and whether relaxed.
     The measured start may not allow reaching the goal at rest within the rate bounds by the phase's end (the hands
     lag, the phase is short): then the smallest stretch that works. Last, the clearance rows violated now (the hands
     inside a margin, linearisations that contradict) ask only not to get worse. When the first two fail and the
     longest fails too, the ones between are not tried. None when the first two fail and `blocked` (if given) says
-    yes: the caller tries a route before the rest."""
+    yes: the caller tries a route before the rest. `skip`: how many of the first two are known to fail already."""
 
     def attempt(stretch: float, relaxed: bool = False):
         fix_ends(C, *ends, T * stretch)
         return planner._sqp_step(C, t, T * stretch, carried, width, relaxed)
 
-    for stretch in STRETCHES[:2]:  # the horizon as it is, then the stretch most starts need
+    for stretch in STRETCHES[skip:2]:  # the horizon as it is, then the stretch most starts need
         if (out := attempt(stretch))[0] is not None:
             return out, stretch, False
     if blocked is not None and blocked():
@@ -85,7 +87,7 @@ def first_plan(planner: TaskPlanner, C, t: float, T: float, ends: Ends, iteratio
         routed = on_route_plan(planner, None, t, T, ends, carried, width)
         if routed is not None and routed.success:
             return routed
-        straight = planner._solve(C, t, T, ends, iterations, carried, width)
+        straight = planner._solve(C, t, T, ends, iterations, carried, width, skip=2)  # the rest of the line's ladder
         return straight if routed is None or straight.success else routed
     if fresh and straight.success:
         planner._route_next = bool(obstacles) and not is_clean(straight, planner.B, obstacles)

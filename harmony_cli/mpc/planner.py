@@ -194,11 +194,11 @@ class TaskPlanner:
             plan, success, status, solved.iterations, time.perf_counter() - start_time, solved.clearance
         )
 
-    def _solve(self, C: np.ndarray, t: float, T: float, ends: Ends, iterations: int, carried, width, blocked=None):
+    def _solve(self, C, t: float, T: float, ends: Ends, iterations: int, carried, width, blocked=None, skip=0):
         """Gauss-Newton SQP from `C` (changed in place) towards `ends` = (state, goal, goal heading); None when its
-        first step says the line is `blocked` (first_step)."""
+        first step says the line is `blocked` (first_step; `skip` too)."""
         success, it = True, 0
-        first = first_step(self, C, t, T, ends, carried, width, blocked)
+        first = first_step(self, C, t, T, ends, carried, width, blocked, skip)
         if first is None:
             return None
         (step, clearance, base_clearance, status), stretch, relaxed = first
