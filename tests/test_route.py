@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.mpc import route, visibility
+from harmony_cli.mpc import corner_graph, route, visibility
 from harmony_cli.mpc.route import SIDES, footprint, plan_route
 
 
@@ -81,7 +81,7 @@ def test_an_outline_asked_for_again_is_the_one_computed_first_and_cannot_be_chan
     assert footprint(box, 0.26) is not first  # another radius is another outline
 
 
-def test_a_route_after_its_outlines_were_warmed_computes_none_of_them_nor_their_geometry():
+def test_a_route_after_its_outlines_were_warmed_computes_none_of_them_nor_their_geometry_nor_their_graph():
     from harmony_cli.mpc.hand_plan import Obstacle
     from harmony_cli.mpc.plan_seed import Ground, route_around, warm_outlines
 
@@ -90,11 +90,13 @@ def test_a_route_after_its_outlines_were_warmed_computes_none_of_them_nor_their_
     ground = Ground([(table, 0.03)], base_radius=0.38)
     warm_outlines([crate], ground)
     computed, geometry = route._outline.cache_info().misses, set(visibility._POLYGONS)
+    graphs = set(corner_graph._GRAPHS)
     hands = lambda x: np.array([[x, 0.15, 1.2], [x, -0.15, 1.2]])
     found = route_around([crate], hands(0.5), hands(3.2), (0.2, 0.15), ground)
     assert found is not None and len(found.points) > 2  # it went round the crate
     assert route._outline.cache_info().misses == computed
     assert set(visibility._POLYGONS) == geometry
+    assert set(corner_graph._GRAPHS) == graphs
 
 
 def test_keeping_only_segments_tangent_at_their_corners_changes_no_route_on_random_scenes(monkeypatch):
@@ -111,7 +113,10 @@ def test_keeping_only_segments_tangent_at_their_corners_changes_no_route_on_rand
             shapes.append(footprint(shape, float(rng.uniform(0.0, 0.5))))
         scenes.append((rng.uniform(-4, 4, 2), rng.uniform(-4, 4, 2), shapes))
     tangent_only = [plan_route(*scene) for scene in scenes]
-    monkeypatch.setattr(route, "tangent", lambda nodes, i, j, polygons: np.ones(len(i), dtype=bool))
+    every = lambda nodes, i, j, polygons: np.ones(len(i), dtype=bool)  # noqa: E731
+    monkeypatch.setattr(route, "tangent", every)
+    monkeypatch.setattr(corner_graph, "tangent", every)
+    monkeypatch.setattr(corner_graph, "_GRAPHS", {})
     full = [plan_route(*scene) for scene in scenes]
     assert sum(r is not None and len(r.points) > 2 for r in full) > 100  # a third and more go round something
     for got, expected in zip(tangent_only, full):
@@ -138,6 +143,27 @@ def test_the_segment_taken_when_clear_is_the_route_the_full_graph_finds_on_rando
         if expected is not None:
             np.testing.assert_allclose(got.points, expected.points, atol=1e-12)
             assert abs(got.length - expected.length) < 1e-9
+
+
+def test_the_corner_pairs_made_ahead_for_all_outlines_are_those_tested_among_the_outlines_a_route_keeps():
+    # corner_graph's edges for a subset of the outlines (those holding no end) against the pairs of the subset's
+    # corners tested there (tangent at both corners, entering none of the subset): the same pairs, in the same order
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        count = int(rng.integers(1, 6))
+        shapes = [_cylinder(*rng.uniform(-3, 3, 2), float(rng.uniform(0.1, 0.6))) for _ in range(count)]
+        polygons = [visibility.polygon_of(footprint(shape, 0.2)) for shape in shapes]
+        kept = rng.uniform(size=len(polygons)) < 0.7
+        blocking = [p for p, k in zip(polygons, kept) if k]
+        nodes = np.vstack([np.zeros((2, 2)), *(p.nodes for p in blocking)])
+        i, j = np.triu_indices(len(nodes), k=1)
+        i, j = i[i >= 2], j[i >= 2]
+        tangent = visibility.tangent(nodes, i, j, blocking)
+        i, j = i[tangent], j[tangent]
+        seen = visibility.visible(nodes, i, j, blocking)
+        got = corner_graph.CornerGraph.of(tuple(polygons)).edges(kept)
+        np.testing.assert_array_equal(got[0], i[seen])
+        np.testing.assert_array_equal(got[1], j[seen])
 
 
 def test_a_route_s_fit_by_the_matrix_built_with_the_planner_equals_numpy_s_least_squares():

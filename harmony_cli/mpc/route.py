@@ -20,6 +20,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from harmony_cli.maths.shapes import Shape
+from harmony_cli.mpc.corner_graph import corner_graph
 from harmony_cli.mpc.visibility import OUTSET, Polygon, inside, polygon_of, tangent, visible
 
 SIDES = 16  # polygon sides of a grown round shape or corner
@@ -65,15 +66,17 @@ def plan_route(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray]) 
     start, goal = np.asarray(start, float)[:2], np.asarray(goal, float)[:2]
     polygons = [polygon_of(o) for o in outlines]
     first, last = _way_out(start, polygons), _way_out(goal, polygons)
-    blocking = [p for p in polygons if not (inside(p, first) or inside(p, last))]  # held: left by the way out
+    kept = np.array([not (inside(p, first) or inside(p, last)) for p in polygons], dtype=bool)
+    blocking = [p for p, k in zip(polygons, kept) if k]  # one holding an end is left by the way out
     if _direct(first, last, blocking):  # the segment is the shortest path: no graph (2-4 ms a route)
         return _route(np.vstack([start, first, last, goal]))
     nodes = np.vstack([first, last, *(p.nodes for p in blocking)])
-    i, j = _pairs(len(nodes))
+    i, j = _end_pairs(len(nodes))  # the pairs with an end; those between corners come made (corner_graph.py)
     keep = np.flatnonzero(tangent(nodes, i, j, blocking))
     i, j = i[keep], j[keep]
     seen = visible(nodes, i, j, blocking)
-    rows, columns = i[seen], j[seen]
+    corner_rows, corner_columns = corner_graph(polygons).edges(kept)
+    rows, columns = np.r_[i[seen], corner_rows], np.r_[j[seen], corner_columns]
     lengths = np.maximum(np.linalg.norm(nodes[rows] - nodes[columns], axis=1), 1e-12)
     # compressed rows built directly (the pairs come row by row, columns rising): the COO path's arrays, less work
     starts = np.searchsorted(rows, np.arange(len(nodes) + 1)).astype(np.int32)
@@ -103,9 +106,9 @@ def _route(points: np.ndarray) -> Route:
 
 
 @lru_cache(maxsize=64)
-def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Every pair of n nodes, row by row with the columns rising (np.triu_indices), read-only."""
-    i, j = np.triu_indices(n, k=1)
+def _end_pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The pairs of n nodes with an end (node 0 or 1), row by row with the columns rising, read-only."""
+    i, j = np.r_[np.zeros(n - 1, dtype=int), np.ones(n - 2, dtype=int)], np.r_[np.arange(1, n), np.arange(2, n)]
     i.flags.writeable = j.flags.writeable = False
     return i, j
 

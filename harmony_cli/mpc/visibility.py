@@ -97,26 +97,65 @@ def _neighbours(sizes: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
 
 def visible(nodes: np.ndarray, i: np.ndarray, j: np.ndarray, polygons: list[Polygon]) -> np.ndarray:
     """Per pair, whether the segment nodes[i] - nodes[j] enters none of the `polygons`."""
-    out, a, b = np.ones(len(i), dtype=bool), nodes[i], nodes[j]
+    if not polygons:
+        return np.ones(len(i), dtype=bool)
+    return ~entering(stack_of(polygons), nodes[i], nodes[j]).any(axis=1)
+
+
+@dataclass(frozen=True)
+class Stack:
+    """Polygons' arrays side by side, so that segments are tested against all of them at once: the edges' normals
+    and the extents along them (`low`, `high`), the outlines' corners, where each polygon's edges and corners
+    begin (`starts`: a polygon has as many of each), the bounding boxes (`box_low`, `box_high`: (polygons, 2))."""
+
+    polygons: tuple[Polygon, ...]
+    normals: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    corners: np.ndarray
+    starts: np.ndarray
+    box_low: np.ndarray
+    box_high: np.ndarray
+
+    @classmethod
+    def of(cls, polygons: tuple[Polygon, ...]) -> Stack:
+        starts = np.r_[0, np.cumsum([len(p.outline) for p in polygons])[:-1]]
+        joined = lambda name: np.concatenate([getattr(p, name) for p in polygons])  # noqa: E731
+        boxes = np.array([p.limits for p in polygons])  # (polygons, low | high, xy)
+        return cls(polygons, *map(joined, ("normals", "low", "high", "outline")), starts, boxes[:, 0], boxes[:, 1])
+
+
+_STACKS: dict[tuple[int, ...], Stack] = {}
+
+
+def stack_of(polygons: list[Polygon]) -> Stack:
+    """These `polygons` side by side (in this order), from the cache while the stack lives (it holds them)."""
+    key = tuple(id(p) for p in polygons)
+    found = _STACKS.get(key)
+    if found is None or any(p is not q for p, q in zip(found.polygons, polygons)):
+        if len(_STACKS) >= 256:  # many scenes in one process: start again rather than grow
+            _STACKS.clear()
+        found = _STACKS[key] = Stack.of(tuple(polygons))
+    return found
+
+
+def entering(stack: Stack, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(segments, polygons): whether each segment a[n]-b[n] ((n, 2) each) enters the interior of each outline
+    (separating axes: the outline's edges' normals and the segment's; touching an edge or a corner is not entering;
+    a segment whose bounding box misses the outline's is not tested). Products written out, not matrix products:
+    BLAS rounds a @ N.T differently for different shapes, and a pair's answer must not depend on its company."""
     low, high = np.minimum(a, b), np.maximum(a, b)
-    for p in polygons:  # only the segments whose bounding box overlaps the outline's can enter it
-        (x0, y0), (x1, y1) = p.limits
-        overlap = (high[:, 0] > x0) & (high[:, 1] > y0) & (low[:, 0] < x1) & (low[:, 1] < y1)
-        near = np.flatnonzero(out & overlap)
-        out[near] = ~_crosses(p, a[near], b[near])
-    return out
-
-
-def _crosses(polygon: Polygon, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Whether each segment a[n]-b[n] ((n, 2) each) enters the interior of the convex outline (separating axes:
-    its edges' normals and the segment's; touching an edge or a corner is not entering)."""
-    normals = polygon.normals
-    pa, pb = a @ normals.T, b @ normals.T  # (n, edges)
-    apart = (np.maximum(pa, pb) <= polygon.low + TOUCH) | (np.minimum(pa, pb) >= polygon.high - TOUCH)
+    overlap = (high[:, None, :] > stack.box_low).all(axis=2) & (low[:, None, :] < stack.box_high).all(axis=2)
+    normals = stack.normals
+    pa = a[:, :1] * normals[:, 0] + a[:, 1:] * normals[:, 1]  # (n, edges)
+    pb = b[:, :1] * normals[:, 0] + b[:, 1:] * normals[:, 1]
+    apart_on = (np.maximum(pa, pb) <= stack.low + TOUCH) | (np.minimum(pa, pb) >= stack.high - TOUCH)
+    apart = np.logical_or.reduceat(apart_on, stack.starts, axis=1)
     across = np.column_stack([a[:, 1] - b[:, 1], b[:, 0] - a[:, 0]])  # the segments' own normals
-    length = np.linalg.norm(across, axis=1, keepdims=True)
-    across = across / np.maximum(length, 1e-15)
-    own = (polygon.outline @ across.T).T  # (n, vertices)
-    level = np.sum(a * across, axis=1)  # both ends project here
-    beside = (level <= own.min(axis=1) + TOUCH) | (level >= own.max(axis=1) - TOUCH)
-    return ~(apart.any(axis=1) | (beside & (length[:, 0] > 1e-15)))
+    length = np.sqrt(across[:, 0] * across[:, 0] + across[:, 1] * across[:, 1])
+    across = across / np.maximum(length, 1e-15)[:, None]
+    own = across[:, :1] * stack.corners[:, 0] + across[:, 1:] * stack.corners[:, 1]  # (n, corners)
+    level = (a[:, 0] * across[:, 0] + a[:, 1] * across[:, 1])[:, None]  # both ends project here
+    own_low, own_high = np.minimum.reduceat(own, stack.starts, axis=1), np.maximum.reduceat(own, stack.starts, axis=1)
+    beside = ((level <= own_low + TOUCH) | (level >= own_high - TOUCH)) & (length > 1e-15)[:, None]
+    return overlap & ~(apart | beside)
