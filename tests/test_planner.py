@@ -274,6 +274,27 @@ def test_a_blocked_line_from_a_clear_start_gets_at_once_the_route_a_later_step_w
     np.testing.assert_array_equal(later.plan.control_points, now.plan.control_points)
 
 
+def test_a_blocked_line_with_a_plan_to_hold_holds_it_and_takes_on_the_next_step_the_route_it_would_take_at_once():
+    # the same blocked carry as above, but after a phase already planned: that step runs only the line's two failing
+    # QPs and holds the plan it has; the next step runs the route's SQP alone, to the plan a planner with nothing to
+    # hold took at once
+    planner = TaskPlanner(SPEC, [_cylinder(0.0)], HOME, OFFSET)
+    state = HandState(START, np.zeros((2, 3)), 0.0)
+    before = planner.step(0.0, state, START, PHASE_END, 0, None)  # phase 0: stay where they are
+    statuses, sqp_step = [], planner._sqp_step
+    planner._sqp_step = lambda *a, **k: statuses.append((out := sqp_step(*a, **k))[3]) or out  # type: ignore
+    held = planner.step(0.0, state, GOAL, PHASE_END, 1, CARRYING)
+    assert held.success and "held" in held.status and planner.route_pending
+    assert statuses == ["qp_failed: -1", "qp_failed: -1"]  # the horizon as it is, then x1.5: nothing else
+    np.testing.assert_array_equal(held.plan.control_points, before.plan.control_points)
+    routed = planner.step(0.0, state, GOAL, PHASE_END, 1, CARRYING)
+    assert routed.status.endswith("(route)") and not planner.route_pending
+    assert not any(status.startswith("qp_failed") for status in statuses[2:])  # the route's SQP alone
+    at_once = TaskPlanner(SPEC, [_cylinder(0.0)], HOME, OFFSET).step(0.0, state, GOAL, PHASE_END, 1, CARRYING)
+    assert at_once.status == routed.status
+    np.testing.assert_array_equal(routed.plan.control_points, at_once.plan.control_points)
+
+
 def test_a_line_no_route_helps_tries_each_horizon_once():
     # the first two horizons fail from a clear start, the route finds nothing in the way: the ladder goes on, not anew
     planner = TaskPlanner(SPEC, [_cylinder(2.0)], HOME, OFFSET)

@@ -1,21 +1,22 @@
 """How the task-space planner gets a phase's first plan when the straight line does not do: a longer horizon (the
 rate bounds), relaxed clearance rows (a start inside a margin) and a route round the obstacles (global guidance),
 each at a bounded cost per control step: a QP that fails costs as much as a few that solve, and a route's SQP runs
-on the step after the straight line's instead of that plan's own step, or instead of the straight line's when the
-phase has a point to pass or the line's first two QPs fail from a clear start (planner.py)."""
+on the step after the straight line's instead of that plan's own step (after the line's first two QPs failed from a
+clear start, that step holds the last plan), or at once when the phase has a point to pass (planner.py)."""
 
 from __future__ import annotations
 
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
+import numpy as np
+
+from harmony_cli.mpc.hand_plan import Solved
 from harmony_cli.mpc.plan_checks import is_clean, rank, starts_clear
 from harmony_cli.mpc.plan_seed import fix_ends, on_route, straight_to
 
 if TYPE_CHECKING:
-    import numpy as np
-
-    from harmony_cli.mpc.hand_plan import Ends, Solved
+    from harmony_cli.mpc.hand_plan import Ends
     from harmony_cli.mpc.planner import TaskPlanner
 
 STRETCHES = (1.0, 1.5, 2.25, 3.5, 5.0)  # horizon factors tried when the rate bounds cannot be met in time
@@ -68,29 +69,38 @@ def on_route_plan(
 
 
 def first_plan(planner: TaskPlanner, C, t: float, T: float, ends: Ends, iterations: int, carried, width, fresh, now):
-    """The SQP from the straight line `C`, or, on a phase's first step where the horizon as it is and its usual
-    stretch both fail from a clear start (an obstacle in the way, most likely), from its route first, the line's
-    other horizons if that fails: one SQP on that step (static_obstacles' slide), none on the next. Otherwise a
-    plan that is not clean asks for a route on the next step (one SQP a step), a failed one tries it now. A start
-    inside a margin keeps the straight line's relaxed rows (never deeper), which a route would not. (A route
-    after the first failure alone, where the line enters an obstacle the hands cannot rise above, took one QP
-    less but also took dynamic_obstacle's carry off the line the SQP bends round the cylinder: box 0.36 cm from
-    its goal, was 0.17.)"""
+    """The SQP from the straight line `C`; None on a phase's first step where the horizon as it is and its usual
+    stretch both fail from a clear start (an obstacle in the way, most likely) and there is a plan to hold: the
+    caller holds it and asks for the route on the next step, so each step runs at most its two failing QPs or the
+    route's SQP (static_obstacles' slide: one loop of 8.5 ms when both ran on one step). With no plan yet (a run's
+    first step) the route now, the line's other horizons if it fails. Otherwise a plan that is not clean asks for a
+    route on the next step, a failed one tries it now. `now`: this step's route was tried already. A start inside a
+    margin keeps the straight line's relaxed rows (never deeper), which a route would not. (A route after the first
+    failure alone, where the line enters an obstacle the hands cannot rise above, took one QP less but also took
+    dynamic_obstacle's carry off the line the SQP bends round the cylinder: box 0.36 cm from its goal, was 0.17.)"""
     obstacles, blocked = planner.obstacles, None
-    if fresh and obstacles:
+    if fresh and obstacles and not now:
 
         def blocked() -> bool:
             return starts_clear(obstacles, ends[0].positions, t, planner._reliefs, carried)
 
     straight = planner._solve(C, t, T, ends, iterations, carried, width, blocked)
     if straight is None:
+        if planner.C is not None:
+            return None
         routed = on_route_plan(planner, None, t, T, ends, carried, width)
         if routed is not None and routed.success:
             return routed
         straight = planner._solve(C, t, T, ends, iterations, carried, width, skip=2)  # the rest of the line's ladder
         return straight if routed is None or straight.success else routed
-    if fresh and straight.success:
+    if fresh and straight.success and not now:
         planner._route_next = bool(obstacles) and not is_clean(straight, planner.B, obstacles)
     elif obstacles and not straight.success and not now:
         return on_route_plan(planner, straight, t, T, ends, carried, width) or straight
     return straight
+
+
+def held_plan(planner: TaskPlanner) -> Solved:
+    """The planner's last plan, held while the route of a blocked line is found on the next step (first_plan)."""
+    assert planner.C is not None
+    return Solved(planner.C, planner.T_plan, True, "line blocked: last plan held, route next step", 0, np.inf, 1.0)

@@ -14,13 +14,12 @@ iteration) on every other step; the horizon is stretched when the bounds cannot 
 Hands below the arms' reach with the pads level (robot/reach.py): a bound on the z control points. The base follows the
 hands: soft rows keep its footprint, carried behind the hands as at home, clear of the obstacles and table legs
 (plan_base.py). Global guidance: a local SQP linearised at the straight line cannot find its way round an obstacle on
-it. When a phase's first plan does not converge, misses a clearance or splits the hands, the next step runs, instead of
-that plan's own step, the SQP from the straight line moved onto the shortest planar route round obstacles and tables,
-wide enough for the base (plan_seed, route.py), and takes it if it succeeds (status "... (route)"; the plan's own step
-if not); a failed plan tries the route at once and takes it if it ranks higher; a first plan from a clear start whose
-first two QPs fail tries it before its other horizons and takes it if it succeeds. A phase whose first plan has a point
-to pass (`via`: a base pose that works at a blocked stance, tasks/stance_pose.py) gets the route through it at once,
-without the straight line's SQP (which leads to the blocked side): one SQP a control step (phase_start.py).
+it. A phase's first plan that does not converge, misses a clearance or splits the hands asks for the SQP from the
+straight line moved onto the shortest planar route round obstacles and tables, wide enough for the base (plan_seed,
+route.py), on the next step, instead of that plan's own step (status "... (route)"; the plan's own step if it fails); a
+failed plan tries it at once and takes it if it ranks higher. When the line's first two QPs fail from a clear start,
+the step holds the last plan and the next runs the route's SQP. A phase with a point to pass (`via`: a base pose that
+works at a blocked stance, tasks/stance_pose.py) gets the route through it at once: one SQP a step (phase_start.py).
 """
 
 from __future__ import annotations
@@ -36,7 +35,7 @@ from harmony_cli.mpc.codegen import Buffered
 from harmony_cli.mpc.distance_code import CompiledDistance
 from harmony_cli.mpc.footprint_code import CompiledMargins
 from harmony_cli.mpc.hand_plan import ROWS, Ends, HandState, Obstacle, Plan, PlannerResult, Solved
-from harmony_cli.mpc.phase_start import first_plan, first_step, on_route_plan
+from harmony_cli.mpc.phase_start import first_plan, first_step, held_plan, on_route_plan
 from harmony_cli.mpc.plan_base import PlannedBase
 from harmony_cli.mpc.plan_checks import goal_reliefs
 from harmony_cli.mpc.plan_seed import Ground, fit_matrix, straight_to, warm_outlines
@@ -176,16 +175,18 @@ class TaskPlanner:
             self._reliefs, self._relief_key = goal_reliefs(self.obstacles, goal, t + T, carried), key
         ends = (state, goal, heading_goal)
         via = self.via if fresh else None  # TaskReferences sets it at a phase change: the phase's first plan only
-        route_now, self.via, self._route_next = self._route_next and not fresh, None, False
-        # the way to a chosen stance is known (the straight line leads to the blocked side), or the phase's first
-        # plan wanted a route: its route's SQP alone (one SQP a step), the plan's own step if it fails
+        route_now, self.via, self._route_next = self._route_next, None, False
+        # the way to a chosen stance is known (the straight line leads to the blocked side), or the last step asked
+        # for a route: its route's SQP alone (one SQP a step), the plan's own step if it fails
         solved = on_route_plan(self, None, t, T, ends, carried, width, via) if via is not None or route_now else None
         if solved is None or not solved.success:
             solved = first_plan(self, C, t, T, ends, iterations, carried, width, fresh, route_now)
+        if held := solved is None:  # the line blocked from a clear start: the last plan held, its route next step
+            self._route_next, solved = True, held_plan(self)
         C, success, status = solved.C, solved.success, solved.status
         if success and not np.isfinite(C).all():  # NaN / inf never becomes the plan: the last one is held
             success, status = False, "non-finite plan"
-        if success:
+        if success and not held:
             self.C, self.phase, self.t_plan, self.T_plan = C, phase, t, solved.T
         if self.C is None:
             raise NoPlanToHold(f"first planner solve failed ({status}); no plan to hold")

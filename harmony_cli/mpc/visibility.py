@@ -99,7 +99,7 @@ def visible(nodes: np.ndarray, i: np.ndarray, j: np.ndarray, polygons: list[Poly
     """Per pair, whether the segment nodes[i] - nodes[j] enters none of the `polygons`."""
     if not polygons:
         return np.ones(len(i), dtype=bool)
-    return ~entering(stack_of(polygons), nodes[i], nodes[j]).any(axis=1)
+    return np.logical_not(entering(stack_of(polygons), nodes[i], nodes[j]).any(axis=1))
 
 
 @dataclass(frozen=True)
@@ -116,13 +116,14 @@ class Stack:
     starts: np.ndarray
     box_low: np.ndarray
     box_high: np.ndarray
+    _JOINED = ("normals", "low", "high", "outline")  # the polygons' arrays joined, in the fields' order
 
     @classmethod
     def of(cls, polygons: tuple[Polygon, ...]) -> Stack:
         starts = np.r_[0, np.cumsum([len(p.outline) for p in polygons])[:-1]]
-        joined = lambda name: np.concatenate([getattr(p, name) for p in polygons])  # noqa: E731
+        normals, low, high, corners = (np.concatenate([getattr(p, k) for p in polygons]) for k in Stack._JOINED)
         boxes = np.array([p.limits for p in polygons])  # (polygons, low | high, xy)
-        return cls(polygons, *map(joined, ("normals", "low", "high", "outline")), starts, boxes[:, 0], boxes[:, 1])
+        return cls(polygons, normals, low, high, corners, starts, boxes[:, 0], boxes[:, 1])
 
 
 _STACKS: dict[tuple[int, ...], Stack] = {}
