@@ -161,7 +161,7 @@ def test_the_corner_pairs_made_ahead_for_all_outlines_are_those_tested_among_the
         tangent = visibility.tangent(nodes, i, j, blocking)
         i, j = i[tangent], j[tangent]
         seen = visibility.visible(nodes, i, j, blocking)
-        got = corner_graph.CornerGraph.of(tuple(polygons)).edges(kept)
+        got = corner_graph.CornerGraph.of(*polygons).edges(kept)
         np.testing.assert_array_equal(got[0], i[seen])
         np.testing.assert_array_equal(got[1], j[seen])
 

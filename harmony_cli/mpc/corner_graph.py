@@ -13,54 +13,45 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harmony_cli.mpc.visibility import Polygon, entering, stack_of, tangent
+from harmony_cli.mpc.visibility import Polygon, by_identity, entering, stack_of, tangent
 
 ENDS = 2  # a route's graph numbers its two ends first, then the corners
 
 
 @dataclass(frozen=True)
 class CornerGraph:
-    """Of the corner pairs tangent at both corners, (i, j) numbered as a graph of all the `polygons` (ENDS, then each
-    polygon's nodes in turn), the polygon holding each corner and, per pair and polygon, whether the pair enters it."""
+    """Of the corner pairs tangent at both corners, (i, j) numbered as a graph of all the polygons (ENDS, then each
+    polygon's nodes in turn), the polygon holding each corner (`owner`, from ENDS on) and, per pair and polygon,
+    whether the pair enters it."""
 
-    polygons: tuple[Polygon, ...]
     i: np.ndarray
     j: np.ndarray
-    owner_i: np.ndarray
-    owner_j: np.ndarray
+    owner: np.ndarray
     enters: np.ndarray  # (pairs, polygons)
 
     @classmethod
-    def of(cls, polygons: tuple[Polygon, ...]) -> CornerGraph:
+    def of(cls, *polygons: Polygon) -> CornerGraph:
         sizes = [len(p.nodes) for p in polygons]
         nodes = np.vstack([np.zeros((ENDS, 2)), *(p.nodes for p in polygons)])
         i, j = np.triu_indices(sum(sizes), k=1)
         i, j = i + ENDS, j + ENDS
         keep = np.flatnonzero(tangent(nodes, i, j, list(polygons)))
         i, j = i[keep], j[keep]
-        owner = np.repeat(np.arange(len(polygons)), sizes)
         enters = entering(stack_of(list(polygons)), nodes[i], nodes[j]) if polygons else np.zeros((0, 0), dtype=bool)
-        return cls(polygons, i, j, owner[i - ENDS], owner[j - ENDS], enters)
+        return cls(i, j, np.repeat(np.arange(len(polygons)), sizes), enters)
 
     def edges(self, kept: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The visible corner pairs (rows rising, then columns) of a graph of the `kept` polygons (bool mask) only,
         numbered as that graph's nodes: ENDS, then the kept polygons' nodes in turn."""
-        seen = kept[self.owner_i] & kept[self.owner_j] & ~self.enters[:, kept].any(axis=1)
-        on_kept = np.repeat(kept, [len(p.nodes) for p in self.polygons])
+        on_kept = kept[self.owner]
+        seen = on_kept[self.i - ENDS] & on_kept[self.j - ENDS] & ~self.enters[:, kept].any(axis=1)
         renumbered = np.r_[np.arange(ENDS), ENDS - 1 + np.cumsum(on_kept)]  # monotone: the order holds
         return renumbered[self.i[seen]], renumbered[self.j[seen]]
 
 
-_GRAPHS: dict[tuple[int, ...], CornerGraph] = {}
+_GRAPHS: dict[tuple[int, ...], tuple] = {}
 
 
 def corner_graph(polygons: list[Polygon]) -> CornerGraph:
-    """The graph of these `polygons` (in this order), from the cache while it lives (it holds them: ids not
-    reused); made on first use."""
-    key = tuple(id(p) for p in polygons)
-    found = _GRAPHS.get(key)
-    if found is None or any(p is not q for p, q in zip(found.polygons, polygons)):
-        if len(_GRAPHS) >= 64:  # many scenes in one process: start again rather than grow
-            _GRAPHS.clear()
-        found = _GRAPHS[key] = CornerGraph.of(tuple(polygons))
-    return found
+    """The graph of these `polygons` (in this order), made once while they live."""
+    return by_identity(_GRAPHS, tuple(polygons), CornerGraph.of, 64)

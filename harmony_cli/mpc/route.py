@@ -68,7 +68,7 @@ def plan_route(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray]) 
     first, last = _way_out(start, polygons), _way_out(goal, polygons)
     kept = np.array([not (inside(p, first) or inside(p, last)) for p in polygons], dtype=bool)
     blocking = [p for p, k in zip(polygons, kept) if k]  # one holding an end is left by the way out
-    if _direct(first, last, blocking):  # the segment is the shortest path: no graph (2-4 ms a route)
+    if _direct(first, last, blocking):  # the segment is the shortest path: no graph
         return _route(np.vstack([start, first, last, goal]))
     nodes = np.vstack([first, last, *(p.nodes for p in blocking)])
     i, j = _end_pairs(len(nodes))  # the pairs with an end; those between corners come made (corner_graph.py)

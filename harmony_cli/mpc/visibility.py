@@ -8,6 +8,7 @@ on one side of the line; a shortest path among convex obstacles bends round thei
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -44,17 +45,24 @@ class Polygon:
         return cls(outline, edges, normals, projected.min(axis=0), projected.max(axis=0), limits, nodes)
 
 
-_POLYGONS: dict[int, Polygon] = {}
+def by_identity(cache: dict, objects: tuple, make: Callable, limit: int):
+    """make(objects), kept in `cache` under the objects' ids while its entry lives (the entry holds them: no id is
+    reused meanwhile); the cache starts again at `limit` entries (many scenes in one process) rather than grow."""
+    key = tuple(map(id, objects))
+    found = cache.get(key)
+    if found is None or any(a is not b for a, b in zip(found[0], objects)):
+        if len(cache) >= limit:
+            cache.clear()
+        found = cache[key] = (objects, make(*objects))
+    return found[1]
+
+
+_POLYGONS: dict[tuple[int], tuple] = {}
 
 
 def polygon_of(outline: np.ndarray) -> Polygon:
-    """`outline`'s geometry, from the cache while that outline lives (held there: its id is not reused)."""
-    found = _POLYGONS.get(id(outline))
-    if found is None or found.outline is not outline:
-        if len(_POLYGONS) >= 1024:  # many scenes in one process: start again rather than grow
-            _POLYGONS.clear()
-        found = _POLYGONS[id(outline)] = Polygon.of(outline)
-    return found
+    """`outline`'s geometry, made once while that outline lives."""
+    return by_identity(_POLYGONS, (outline,), Polygon.of, 1024)
 
 
 def inside(polygon: Polygon, point: np.ndarray) -> bool:
@@ -108,7 +116,6 @@ class Stack:
     and the extents along them (`low`, `high`), the outlines' corners, where each polygon's edges and corners
     begin (`starts`: a polygon has as many of each), the bounding boxes (`box_low`, `box_high`: (polygons, 2))."""
 
-    polygons: tuple[Polygon, ...]
     normals: np.ndarray
     low: np.ndarray
     high: np.ndarray
@@ -116,28 +123,22 @@ class Stack:
     starts: np.ndarray
     box_low: np.ndarray
     box_high: np.ndarray
-    _JOINED = ("normals", "low", "high", "outline")  # the polygons' arrays joined, in the fields' order
+    JOINED = ("normals", "low", "high", "outline")  # the polygons' arrays joined into the first four fields
 
     @classmethod
-    def of(cls, polygons: tuple[Polygon, ...]) -> Stack:
+    def of(cls, *polygons: Polygon) -> Stack:
         starts = np.r_[0, np.cumsum([len(p.outline) for p in polygons])[:-1]]
-        normals, low, high, corners = (np.concatenate([getattr(p, k) for p in polygons]) for k in Stack._JOINED)
+        normals, low, high, corners = (np.concatenate([getattr(p, k) for p in polygons]) for k in cls.JOINED)
         boxes = np.array([p.limits for p in polygons])  # (polygons, low | high, xy)
-        return cls(polygons, normals, low, high, corners, starts, boxes[:, 0], boxes[:, 1])
+        return cls(normals, low, high, corners, starts, boxes[:, 0], boxes[:, 1])
 
 
-_STACKS: dict[tuple[int, ...], Stack] = {}
+_STACKS: dict[tuple[int, ...], tuple] = {}
 
 
 def stack_of(polygons: list[Polygon]) -> Stack:
-    """These `polygons` side by side (in this order), from the cache while the stack lives (it holds them)."""
-    key = tuple(id(p) for p in polygons)
-    found = _STACKS.get(key)
-    if found is None or any(p is not q for p, q in zip(found.polygons, polygons)):
-        if len(_STACKS) >= 256:  # many scenes in one process: start again rather than grow
-            _STACKS.clear()
-        found = _STACKS[key] = Stack.of(tuple(polygons))
-    return found
+    """These `polygons` side by side (in this order), made once while they live."""
+    return by_identity(_STACKS, tuple(polygons), Stack.of, 256)
 
 
 def entering(stack: Stack, a: np.ndarray, b: np.ndarray) -> np.ndarray:
