@@ -5,7 +5,7 @@ STAMP := $(VENV)/.installed
 HARMONY := $(VENV)/bin/harmony
 TABLE1 := scenarios/paper/table1_s_shape.yaml
 
-.PHONY: install lint test test-slow bench reproduce-paper study docs clean
+.PHONY: install lint test test-slow bench reproduce-paper study study-validation docs clean
 
 # Ranges live in pyproject.toml; constraints.txt pins the versions every install uses (refresh it with
 # `.venv/bin/pip freeze | grep -v '^-e' > constraints.txt` after a deliberate upgrade).
@@ -76,10 +76,15 @@ reproduce-paper: $(STAMP)
 		results/paper/push_recovery_admittance_$$a.png; done
 	$(VENV)/bin/python tools/render_docs.py
 
-# pick_and_carry over 100 randomised scenes on 2 local jobs (resumable: started again, it runs what is missing);
-# its report, figures and study.parquet are committed under results/studies/ (the run directories are not)
+# pick_and_carry over randomised scenes on 2 local jobs (resumable: started again, it runs what is missing): `study`
+# runs the 100 draws for development (dev), `study-validation` the 200 that are run to report, never to choose
+# between variants; their reports, figures and study.parquet are committed under results/studies/ (the run
+# directories are not)
 study: $(STAMP)
-	$(HARMONY) study studies/pick_and_carry_random.yaml --jobs 2 --out results/studies/pick_and_carry_random
+	$(HARMONY) study studies/pick_and_carry_random.yaml --draws dev --jobs 2
+
+study-validation: $(STAMP)
+	$(HARMONY) study studies/pick_and_carry_random.yaml --draws validation --jobs 2
 
 clean:
 	rm -rf results/runs results/compare results/bench results/paper/runs results/paper/push_recovery results/paper/robots .pytest_cache .hypothesis

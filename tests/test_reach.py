@@ -65,10 +65,10 @@ def test_a_carry_higher_than_either_arm_reaches_is_refused_before_the_robot_move
     path = Path(__file__).parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml"
     check = SceneCheck(path.parent)
     assert check.unreachable(load_scenario(path)) is None
-    # 1.9 m: above what either hand reaches with its pad level (the arms' links laid end to end reach 2.2 m)
-    high = ["task.phases.carry.hands.left=[6.1,0.154,1.9]", "task.phases.carry.hands.right=[6.1,-0.154,1.9]"]
+    # 2.3 m: above the arms' links laid end to end (2.26 m), so certainly out of reach
+    high = ["task.phases.carry.hands.left=[6.1,0.154,2.3]", "task.phases.carry.hands.right=[6.1,-0.154,2.3]"]
     why = check.unreachable(load_scenario(path, high))
-    assert why is not None and why.startswith("phase carry: the left hand's target [6.1, 0.154, 1.9] and the"), why
+    assert why is not None and why.startswith("phase carry: the left hand's target [6.1, 0.154, 2.3] and the"), why
     assert why.endswith("out of reach from every collision-free base pose")
 
 
@@ -86,3 +86,37 @@ def test_a_place_amid_a_table_wider_than_the_arms_reach_is_refused_for_the_trunk
     assert check.unreachable(load_scenario(path, [*wide, "robot.trunk=[]"])) is None
     why = check.unreachable(load_scenario(path, wide))
     assert why is not None and why.startswith("phase carry:") and why.endswith("collision-free base pose"), why
+
+
+def test_no_joint_values_put_a_hand_beyond_its_reach_bound_in_pinocchio_s_kinematics(eva):
+    from harmony_cli.robot.reach_bound import reach_bound
+
+    model = pin.buildModelFromUrdf(str(eva.urdf))
+    data = model.createData()
+    rng = np.random.default_rng(0)
+    arms = [i for i in range(eva.n_dof) if i not in eva.base_joints]
+    for hand in range(2):
+        bound, frame = reach_bound(eva, hand), model.getFrameId(eva.end_effectors[hand])
+        farthest = 0.0
+        for _ in range(2000):
+            q = _home_at_origin(eva)
+            q[arms] = rng.uniform(np.maximum(eva.lower[arms], -np.pi), np.minimum(eva.upper[arms], np.pi))
+            q_pin = np.zeros(model.nq)
+            q_pin[[model.joints[model.getJointId(j)].idx_q for j in eva.joint_names]] = q
+            pin.framesForwardKinematics(model, data, q_pin)
+            p = data.oMf[frame].translation
+            radius = bound.radius(float(p[2]))
+            assert radius is not None and np.hypot(p[0], p[1]) <= radius + 1e-9
+            farthest = max(farthest, np.hypot(p[0], p[1]) / radius)
+        assert farthest > 0.6  # the bound is not vacuous: random poses come within reach of it
+
+
+def test_the_reach_bound_is_at_least_the_farthest_reach_the_optimiser_finds(eva):
+    from harmony_cli.robot.reach import hand_radius
+    from harmony_cli.robot.reach_bound import reach_bound
+
+    for hand in range(2):
+        bound = reach_bound(eva, hand)
+        for z in (1.0, 1.245, 1.5):
+            found = hand_radius(eva, hand, z)
+            assert found is not None and found <= bound.radius(z)

@@ -20,11 +20,12 @@ from typer.testing import CliRunner
 from harmony_cli.cli import app
 from harmony_cli.experiment.run import run_scenario
 from harmony_cli.maths.shapes import obstacle_shape, table_shape
+from harmony_cli.scenario import ScenarioError
 from harmony_cli.study.plan import plan_runs
 from harmony_cli.study.report import refusal_kind, wilson, write_report
 from harmony_cli.study.runner import Options, plan_study, run_study
 from harmony_cli.study.sampling import Sampler
-from harmony_cli.study.spec import base_scenario_path, load_study
+from harmony_cli.study.spec import base_scenario_path, draw_set, load_study
 from harmony_cli.study.table import TABLE, flatten, outcome, run_reason
 from harmony_cli.tasks.scene_check import SceneCheck, planar_gap
 
@@ -35,7 +36,8 @@ TIMING = ("_ms", "time_s", "wall_clock", "run_dir")  # columns that differ betwe
 def _sampler(path: Path = STUDY) -> tuple:
     spec = load_study(path)
     scenario = base_scenario_path(path, spec)
-    return spec, Sampler(spec, scenario, SceneCheck(scenario.parent, spec.check.clearance))
+    name, draws = draw_set(spec, None, None, None)
+    return spec, Sampler(spec, scenario, SceneCheck(scenario.parent, spec.check.clearance), (name, draws.seed))
 
 
 def test_sample_i_is_the_same_scene_whether_the_study_has_5_or_50_samples():
@@ -209,25 +211,61 @@ def test_a_run_stopped_after_its_box_fell_counts_as_dropped_and_says_both():
     assert outcome(at_end) == "run failed: solver"  # judged at the end: the stop may be why
 
 
-def test_the_report_counts_the_scene_check_s_refusals_by_kind(tmp_path):
-    """report.md's scene-check line counts the refused draws by what refused them (the table's `rejected`)."""
-    overlap = "obstacle cylinder overlaps table pick_table (overlapping by 3.3 cm)"
-    unposed = "stance: no base pose found, clear of the scene, from which the hands reach phases carry to retreat"
+REASONS = {"impossible": "phase carry: no passage for the base from its start", "dropped": "the box fell"}
+
+
+def _report_of(tmp_path: Path, outcomes: list[str], rejected: list[list[str]]) -> str:
+    """report.md of a table of one grid point with these outcomes and, per sample, its refused draws."""
     table = pd.DataFrame(
         {
-            "point": ["base"] * 3,
-            "sample": [0, 1, 2],
-            "success": [True, True, True],
-            "outcome": ["success"] * 3,
-            "reason": [""] * 3,
-            "resamples": [2, 0, 1],
-            "rejected": [json.dumps([overlap, unposed]), json.dumps([]), json.dumps([overlap])],
-            "run_dir": [str(tmp_path / f"runs/s{i}") for i in range(3)],
+            "point": ["base"] * len(outcomes),
+            "sample": list(range(len(outcomes))),
+            "success": [o.startswith("success") if o != "interrupted" else None for o in outcomes],
+            "outcome": outcomes,
+            "reason": [REASONS.get(o, "") for o in outcomes],
+            "resamples": [len(r) for r in rejected],
+            "rejected": [json.dumps(r) for r in rejected],
+            "run_dir": [str(tmp_path / f"runs/s{i}") for i in range(len(outcomes))],
         }
     )
     table.to_parquet(tmp_path / TABLE)
     write_report(tmp_path)
+    return (tmp_path / "report.md").read_text()
+
+
+def test_the_report_counts_the_draws_refused_as_impossible_by_kind(tmp_path):
+    overlap = "obstacle cylinder overlaps table pick_table (overlapping by 3.3 cm)"
+    start = "obstacle cylinder overlaps the robot's start (overlapping by 1.0 cm)"
+    report = _report_of(tmp_path, ["success"] * 3, [[overlap, start], [], [overlap]])
     assert (
-        "Scene check: 3 draws refused and drawn again over 3 samples: 2 an obstacle overlapping a table or the box, "
-        "1 no base pose found at a blocked stance." in (tmp_path / "report.md").read_text()
+        "3 successes of 3 draws (100 %, Wilson 95 % 44 % - 100 %); 3 refused as impossible (2 an obstacle "
+        "overlapping a table or the box, 1 an obstacle overlapping the robot's start)." in report
+    ), report
+
+
+def test_the_report_s_denominator_counts_a_no_stance_draw_and_not_a_refused_or_unfinished_one(tmp_path):
+    outcomes = ["success", "no stance", "success, a phase timed out", "impossible", "interrupted", "dropped"]
+    report = _report_of(tmp_path, outcomes, [[]] * len(outcomes))
+    assert (  # success, no stance, the late success and the drop are draws; the late success is a success
+        "2 successes of 4 draws (50 %, Wilson 95 % 15 % - 85 %); 1 refused as impossible (1 no passage for the "
+        "base); 1 of the successes had a phase that timed out; 1 runs without a result (interrupted or not run), "
+        "not counted." in report
+    ), report
+
+
+def test_each_set_of_draws_has_its_own_seed_and_directory_and_a_set_not_in_the_file_needs_a_seed(tmp_path):
+    path = tmp_path / "study.yaml"
+    text = STUDY.read_text().replace("../scenarios", str(ROOT / "scenarios"))
+    path.write_text(
+        text.replace("samples: 4\nseed: 7", "draws:\n  dev: {seed: 7, samples: 4}\n  validation: {seed: 8, samples: 3}")
     )
+    dev = plan_study(path, Options(progress=False))
+    validation = plan_study(path, Options(draws="validation", progress=False))
+    assert dev.out == Path("results/studies/smoke_box_lift/dev") and len(dev.runs) == 4
+    assert validation.out == Path("results/studies/smoke_box_lift/validation") and len(validation.runs) == 3
+    assert {r.sample.seed for r in validation.runs} == {8}
+    assert not {r.key for r in dev.runs} & {r.key for r in validation.runs}  # other scenes
+    with pytest.raises(ScenarioError, match="--draws test: not a set of the study file"):
+        plan_study(path, Options(draws="test", progress=False))
+    test = plan_study(path, Options(draws="test", seed=11, samples=2, progress=False))
+    assert test.out == Path("results/studies/smoke_box_lift/test") and len(test.runs) == 2

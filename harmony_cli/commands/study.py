@@ -13,8 +13,12 @@ from harmony_cli.scenario import ScenarioError
 def study(
     target: str = typer.Argument(..., help="STUDY.yaml, or `report` followed by a study directory"),
     study_dir: Path | None = typer.Argument(None, help="With `report`: the study directory"),
-    out: Path | None = typer.Option(None, help="Study directory (default results/studies/<name>)"),
-    samples: int | None = typer.Option(None, min=1, help="Samples to run (default: the study file's)"),
+    out: Path | None = typer.Option(None, help="Study directory (default results/studies/<name>/<draws>)"),
+    draws: str | None = typer.Option(
+        None, help="The set of draws: dev, validation, ... (default: the study file's first)"
+    ),
+    seed: int | None = typer.Option(None, min=0, help="That set's seed (required for a set the file does not name)"),
+    samples: int | None = typer.Option(None, min=1, help="Samples to run (default: the set's)"),
     jobs: int = typer.Option(1, min=1, help="Runs at once on this machine"),
     ray: str | None = typer.Option(
         None, help="Run on Ray: `auto` (this machine's cluster, or a local one) or an address"
@@ -26,7 +30,7 @@ def study(
     """Run a study (randomised scenes x grid, resumable) and write study.parquet and its report; or, as `harmony
     study report DIR`, write the report of a study directory again."""
     from harmony_cli.experiment.interrupts import RunInterrupted
-    from harmony_cli.study.report import success_rates, write_report
+    from harmony_cli.study.report import headline, success_rates, write_report
     from harmony_cli.study.runner import PLOTS, Options, run_study
 
     if target == "report":
@@ -40,7 +44,8 @@ def study(
         fail(f"study: unexpected argument {str(study_dir)!r}; `harmony study STUDY.yaml` or `harmony study report DIR`")
     if plots not in PLOTS:
         fail(f"--plots: {plots!r} is not valid; choose one of: {', '.join(PLOTS)}")
-    options = Options(out, jobs, ray, samples, tuple(r for r in rerun.split(",") if r), plots, not quiet)
+    reruns = tuple(r for r in rerun.split(",") if r)
+    options = Options(out, jobs, ray, draws, seed, samples, reruns, plots, not quiet)
     try:
         outcome = run_study(Path(target), options)
     except ScenarioError as exc:
@@ -55,8 +60,5 @@ def study(
     for path in write_report(outcome.out):
         typer.echo(literal(str(path)))
     for r in success_rates(outcome.table).itertuples():
-        typer.echo(
-            f"{r.point}: success {r.successes}/{r.runs} ({100 * r.rate:.0f} %, Wilson 95 % "
-            f"{100 * r.low:.0f}-{100 * r.high:.0f} %)" + (f", {r.no_result} without a result" if r.no_result else "")
-        )
-    typer.echo(f"{outcome.ran} runs ran, {outcome.skipped} found done; {outcome.resamples} scene draws refused")
+        typer.echo(literal(f"{r.point}: {headline(r, outcome.table[outcome.table['point'] == r.point])}"))
+    typer.echo(f"{outcome.ran} runs ran, {outcome.skipped} found done")

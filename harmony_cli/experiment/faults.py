@@ -22,8 +22,8 @@ MAX_HELD_S = 1.0
 
 
 class RunFault(RuntimeError):
-    """A fault that ends a run: `category` (diverged, penetration, impossible, solver, simulator, disk, write) and
-    `reason`."""
+    """A fault that ends a run: `category` (diverged, penetration, impossible, no stance, solver, simulator, disk,
+    write) and `reason`."""
 
     def __init__(self, category: str, reason: str):
         super().__init__(reason)

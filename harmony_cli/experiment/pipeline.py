@@ -32,6 +32,7 @@ from harmony_cli.sim.video import VideoRecorder, frame_every
 from harmony_cli.tasks.motion import Predictor, obstacle_predictor
 from harmony_cli.tasks.reference import HandReference, TrajectoryReferences
 from harmony_cli.tasks.scene_check import SceneCheck
+from harmony_cli.tasks.stance_check import unposed
 from harmony_cli.tasks.targets import References
 from harmony_cli.tasks.two_stage import TaskReferences
 
@@ -64,14 +65,17 @@ class Built:
 
 def build(scenario: Scenario, scenario_dir: Path) -> Built:
     """The simulation first: a robot that starts inside the ground or an obstacle is refused before the MPCs'
-    build (RunFault "penetration"), and so is a task with a hand target out of reach or behind a gap the base
-    cannot pass (RunFault "impossible")."""
+    build (RunFault "penetration"), and so is a task with a hand target beyond the arms' reach or behind a gap the
+    base cannot pass (RunFault "impossible": a proof from geometry). A blocked stance for which the controller's
+    search finds no base pose ends the run there too, as the controller's failure (RunFault "no stance")."""
     robot = robot_of(scenario, scenario_dir)
     sim = Simulation(robot, scenario.sim, scenario.world, scenario.pushes)
     try:
         check_start(sim.penetrations())
         if (why := SceneCheck(scenario_dir).unreachable(scenario)) is not None:
             raise RunFault("impossible", f"the scene has no solution before the robot moves: {why}")
+        if scenario.task is not None and (why := unposed(scenario, robot)) is not None:
+            raise RunFault("no stance", f"the controller found no stance before the robot moved: {why}")
         mpc = WholeBodyMPC(robot, scenario, scenario.sim.control_dt)
     except BaseException:
         sim.close()

@@ -70,9 +70,10 @@ def run_key(scenario: Scenario, scenario_path: Path) -> str:
     return hashlib.sha256(f"{text}\0{code_version()}".encode()).hexdigest()[:KEY_CHARS]
 
 
-def plan_runs(spec: StudySpec, sampler: Sampler, samples: int | None = None, progress=None) -> list[PlannedRun]:
-    """Every (sample, grid point) run in sample order; `progress(done, total)` after each sample."""
-    total = samples if samples is not None else spec.samples
+def plan_runs(spec: StudySpec, sampler: Sampler, samples: int, progress=None) -> list[PlannedRun]:
+    """Every (sample, grid point) run of the first `samples` samples in sample order; `progress(done, total)` after
+    each sample."""
+    total = samples
     runs = []
     for i in range(total):
         sample = sampler.sample(i)

@@ -1,7 +1,9 @@
-"""`harmony study report DIR`: from study.parquet, report.md with the success rate and its Wilson 95 % interval per
-grid point, outcomes by category, distributions of the run metrics, success against every varied field (plots)
-and the runs that did not succeed, each with the command that shows its replay (`harmony view`) and the one that
-runs it again."""
+"""`harmony study report DIR`: from study.parquet, report.md with, per grid point, the successes over every draw
+the controller was given (its own failures before the robot moved, such as `no stance`, included) with the Wilson
+95 % interval, and the draws refused as impossible by a proof from geometry (tasks/scene_check.py) counted apart
+by kind; outcomes by category, distributions of the run metrics, success against every varied field (plots) and
+the runs that did not succeed, each with the command that shows its replay (`harmony view`) and the one that runs
+it again."""
 
 from __future__ import annotations
 
@@ -13,11 +15,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import yaml
+from scipy.stats import binomtest
 
 from harmony_cli.report.figure import plt, save
-from harmony_cli.study.table import TABLE
+from harmony_cli.study.table import IMPOSSIBLE, SUCCESS, SUCCESS_TIMED_OUT, TABLE
 
-Z95 = 1.959963984540054  # the standard normal's 97.5 % quantile
 METRICS = (  # (column or prefix, what it is, unit scale, unit): distributions in the report
     ("summary.task.box_goal_error_m", "box goal error", 100.0, "cm"),
     ("summary.task.grip_off_square_deg", "box off square against the pads, first held", 1.0, "deg"),
@@ -30,14 +32,12 @@ METRICS = (  # (column or prefix, what it is, unit scale, unit): distributions i
 )
 
 
-def wilson(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
-    """Wilson score interval of a binomial proportion (good at small n and at rates near 0 or 1)."""
+def wilson(successes: int, n: int) -> tuple[float, float]:
+    """Wilson score 95 % interval of a binomial proportion (good at small n and at rates near 0 or 1)."""
     if n == 0:
         return (math.nan, math.nan)
-    p = successes / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return (max(0.0, centre - half), min(1.0, centre + half))
+    interval = binomtest(successes, n).proportion_ci(confidence_level=0.95, method="wilson")
+    return (float(interval.low), float(interval.high))
 
 
 def metric(table: pd.DataFrame, column: str) -> pd.Series:
@@ -56,26 +56,34 @@ def varied_columns(table: pd.DataFrame) -> list[str]:
 
 
 def success_rates(table: pd.DataFrame) -> pd.DataFrame:
-    """Per grid point: runs with a result, successes, rate, Wilson 95 % interval, and the runs without a result."""
+    """Per grid point: `runs` (the draws the controller was given, with a result), successes (`late`: those with a
+    phase that timed out), rate, Wilson 95 % interval, `refused` (draws refused as impossible: drawn again before
+    they ran, or ended so before the robot moved) and the runs without a result."""
     out = []
     for point, runs in table.groupby("point", sort=False):
-        results = runs[runs["success"].notna()]
+        impossible = runs["outcome"] == IMPOSSIBLE
+        results = runs[runs["success"].notna() & ~impossible]
         k, n = int(results["success"].astype(bool).sum()), len(results)
         low, high = wilson(k, n)
         out.append(
             {"point": point, "runs": n, "successes": k, "rate": k / n if n else math.nan, "low": low, "high": high}
-            | {"no_result": len(runs) - n}
+            | {"late": int((results["outcome"] == SUCCESS_TIMED_OUT).sum())}
+            | {"refused": int(_resamples(runs) + impossible.sum()), "no_result": int(runs["success"].isna().sum())}
         )
     return pd.DataFrame(out)
 
 
-# a scene check's refusal (tasks/scene_check.py, tasks/stance_check.py) -> its kind, as the report counts them
+def _resamples(runs: pd.DataFrame) -> int:
+    return int(runs.groupby("sample")["resamples"].first().sum()) if "resamples" in runs else 0
+
+
+# a scene check's refusal (tasks/scene_check.py) -> its kind, as the report counts them
 REFUSALS = (
-    (r"^stance: no base pose found", "no base pose found at a blocked stance"),
+    (r"^obstacle .* overlaps the robot's start", "an obstacle overlapping the robot's start"),
     (r"^obstacle .* overlaps", "an obstacle overlapping a table or the box"),
-    (r"^obstacle .* from the robot's start", "an obstacle within its margin of the robot's start"),
-    (r"out of reach from every collision-free base pose", "a hand target out of reach"),
+    (r"out of reach from every collision-free base pose", "a hand target beyond the arms' reach"),
     (r"no passage for the base", "no passage for the base"),
+    (r"^invalid: ", "an invalid scenario"),
 )
 
 
@@ -84,18 +92,40 @@ def refusal_kind(reason: str) -> str:
     return next((kind for pattern, kind in REFUSALS if re.search(pattern, reason)), "other")
 
 
-def _refusals(table: pd.DataFrame) -> str:
-    """The scene check's line: how many draws it refused, and of what kind when the table says why."""
-    per_sample = table.groupby("sample").first()
-    refused = int(per_sample["resamples"].sum())
-    line = f"Scene check: {refused} draws refused and drawn again over {len(per_sample)} samples"
-    if "rejected" not in per_sample or not refused:
-        return line + "."
-    reasons = [
-        r for cell in per_sample["rejected"].dropna() for r in (json.loads(cell) if isinstance(cell, str) else cell)
-    ]
-    kinds = pd.Series([refusal_kind(r) for r in reasons]).value_counts()
-    return line + ": " + ", ".join(f"{n} {kind}" for kind, n in kinds.items()) + "."
+def refused_kinds(runs: pd.DataFrame) -> pd.Series:
+    """The draws refused as impossible, counted by kind: those drawn again (the samples' `rejected`) and the runs
+    that ended so before the robot moved."""
+    reasons = []
+    if "rejected" in runs:
+        cells = runs.groupby("sample")["rejected"].first().dropna()
+        reasons = [r for cell in cells for r in (json.loads(cell) if isinstance(cell, str) else cell)]
+    if "reason" in runs:
+        reasons += [str(r) for r in runs.loc[runs["outcome"] == IMPOSSIBLE, "reason"]]
+    return pd.Series([refusal_kind(r) for r in reasons], dtype=object).value_counts()
+
+
+def headline(rate, runs: pd.DataFrame) -> str:
+    """The line `N successes of M draws (rate, Wilson 95 % a-b); K refused as impossible (by kind)` and what is
+    left out, for one grid point's `rate` (a row of success_rates) and its `runs`."""
+    kinds = refused_kinds(runs)
+    by_kind = f" ({', '.join(f'{n} {kind}' for kind, n in kinds.items())})" if len(kinds) else ""
+    line = (
+        f"{rate.successes} successes of {rate.runs} draws ({_pct(rate.rate)}, Wilson 95 % {_pct(rate.low)} - "
+        f"{_pct(rate.high)}); {rate.refused} refused as impossible{by_kind}"
+    )
+    if rate.late:
+        line += f"; {rate.late} of the successes had a phase that timed out"
+    if rate.no_result:
+        line += f"; {rate.no_result} runs without a result (interrupted or not run), not counted"
+    return line + "."
+
+
+def _draws(table: pd.DataFrame) -> str:
+    """Which set of draws the table holds ("" for a table from before sets of draws)."""
+    if "draws" not in table or table["draws"].isna().all():
+        return ""
+    sets = table[["draws", "seed"]].drop_duplicates().itertuples(index=False)
+    return "Draws: " + ", ".join(f"`{d.draws}` (seed {d.seed})" for d in sets) + ". "
 
 
 def _pct(x: float) -> str:
@@ -108,19 +138,18 @@ def write_report(study: Path) -> list[Path]:
     rates = success_rates(table)
     spec = study / "study.yaml"  # the study file as run
     name = yaml.safe_load(spec.read_text()).get("name", study.name) if spec.is_file() else study.name
-    lines = [f"# Study {name}", "", f"{len(table)} runs ({TABLE}; one row per run).", ""]
-    lines += ["## Success rate (Wilson 95 % interval)", "", "| grid point | runs | successes | rate | 95 % interval |"]
-    lines += ["|---|---:|---:|---:|---|"]
+    lines = [f"# Study {name}", "", f"{_draws(table)}{len(table)} runs ({TABLE}; one row per run).", ""]
+    points = dict(list(table.groupby("point", sort=False)))
+    lines += ["## Success rate", ""] + [f"- {r.point}: {headline(r, points[r.point])}" for r in rates.itertuples()]
+    lines += ["", "| grid point | draws | successes | rate | Wilson 95 % | refused as impossible | no result |"]
+    lines += ["|---|---:|---:|---:|---|---:|---:|"]
     lines += [
-        f"| {r.point} | {r.runs} | {r.successes} | {_pct(r.rate)} | {_pct(r.low)} - {_pct(r.high)} |"
+        f"| {r.point} | {r.runs} | {r.successes} | {_pct(r.rate)} | {_pct(r.low)} - {_pct(r.high)} | {r.refused} | "
+        f"{r.no_result} |"
         for r in rates.itertuples()
     ]
-    missing = int(rates["no_result"].sum())
-    if missing:
-        lines += ["", f"{missing} runs have no result (interrupted or not run): not counted above."]
     counts = table.groupby(["point", "outcome"], sort=False).size().unstack(fill_value=0)
     lines += ["", "## Outcomes by category", "", _markdown(counts.reset_index())]
-    lines += ["", _refusals(table)]
     lines += ["", "## Run metrics (median / p95 / max over runs with a value)", ""]
     lines += ["| metric | grid point | runs | median | p95 | max |", "|---|---|---:|---:|---:|---:|"]
     for column, what, scale, unit in METRICS:
@@ -130,7 +159,7 @@ def write_report(study: Path) -> list[Path]:
                 q = np.percentile(values, [50, 95, 100])
                 label = f"{what} [{unit}]" if unit else what
                 lines.append(f"| {label} | {point} | {len(values)} | {q[0]:.3g} | {q[1]:.3g} | {q[2]:.3g} |")
-    failed = table[table["outcome"] != "success"]
+    failed = table[~table["outcome"].isin([SUCCESS, SUCCESS_TIMED_OUT])]
     lines += ["", f"## Runs that did not succeed ({len(failed)})", ""]
     if len(failed):
         header = "| sample | grid point | outcome | reason | look at it | run it again |"

@@ -15,7 +15,7 @@ from harmony_cli.scenario import ScenarioError
 from harmony_cli.study.execute import Job, run_here, run_pool, run_ray
 from harmony_cli.study.plan import PlannedRun, code_version, plan_runs
 from harmony_cli.study.sampling import Sampler
-from harmony_cli.study.spec import StudySpec, base_scenario_path, load_study
+from harmony_cli.study.spec import StudySpec, base_scenario_path, draw_set, load_study
 from harmony_cli.study.table import NOT_RUN, TABLE, run_row, write_table
 from harmony_cli.tasks.scene_check import SceneCheck
 
@@ -28,6 +28,8 @@ class Options:
     out: Path | None = None
     jobs: int = 1
     ray: str | None = None  # auto | a cluster address
+    draws: str | None = None  # the set of draws (None: the study file's first)
+    seed: int | None = None  # that set's seed replaced (a set the file does not have needs one)
     samples: int | None = None  # fewer (or more) than the study file says
     rerun: tuple[str, ...] = ()
     plots: str = "failed"
@@ -40,11 +42,10 @@ class StudyOutcome:
     table: pd.DataFrame
     ran: int
     skipped: int
-    resamples: int
 
 
-def study_dir(spec: StudySpec, out: Path | None) -> Path:
-    return out if out is not None else Path("results/studies") / spec.name
+def study_dir(spec: StudySpec, draws: str, out: Path | None) -> Path:
+    return out if out is not None else Path("results/studies") / spec.name / draws
 
 
 def _bar(progress: bool) -> Progress:
@@ -95,12 +96,13 @@ def plan_study(path: Path, options: Options) -> Plan:
     if options.rerun and not set(options.rerun) <= set(RERUN):
         raise ScenarioError(f"--rerun {','.join(options.rerun)}: choose from {', '.join(RERUN)}")
     spec = load_study(path)
+    name, draws = draw_set(spec, options.draws, options.seed, options.samples)
     scenario_path = base_scenario_path(path, spec)
-    sampler = Sampler(spec, scenario_path, SceneCheck(scenario_path.parent, spec.check.clearance))
-    out = study_dir(spec, options.out)
+    sampler = Sampler(spec, scenario_path, SceneCheck(scenario_path.parent, spec.check.clearance), (name, draws.seed))
+    out = study_dir(spec, name, options.out)
     with _bar(options.progress) as bar:
-        task = bar.add_task("drawing scenes", total=options.samples or spec.samples, rate="")
-        runs = plan_runs(spec, sampler, options.samples, lambda done, total: bar.update(task, completed=done))
+        task = bar.add_task(f"drawing scenes ({name}, seed {draws.seed})", total=draws.samples, rate="")
+        runs = plan_runs(spec, sampler, draws.samples, lambda done, total: bar.update(task, completed=done))
     rows = {run.name: run_row(run, out / "runs" / run.name) for run in runs}
     todo = [run for run in runs if _wanted(rows[run.name], options.rerun)]
     return Plan(spec, scenario_path, out, runs, rows, todo)
@@ -140,13 +142,14 @@ def run_study(path: Path, options: Options) -> StudyOutcome:
         finally:  # interrupted too: the runs in flight wrote their results; the table says so
             rows |= {run.name: run_row(run, out / "runs" / run.name) for run in todo}
             table = write_table(list(rows.values()), out / TABLE)
-    resamples = sum(len(run.sample.rejected) for run in runs if run.point == runs[0].point)
-    return StudyOutcome(out, table, len(todo), len(runs) - len(todo), resamples)
+    return StudyOutcome(out, table, len(todo), len(runs) - len(todo))
 
 
 def _job(run: PlannedRun, spec: StudySpec, scenario_path: Path, out: Path, plots: str) -> Job:
     record = {
         "study": spec.name,
+        "draws": run.sample.draws,
+        "seed": run.sample.seed,
         "sample": run.sample.index,
         "point": run.point,
         "values": run.sample.values,

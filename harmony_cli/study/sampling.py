@@ -23,6 +23,8 @@ from harmony_cli.study.spec import Distribution, StudySpec
 
 @dataclass(frozen=True)
 class Sample:
+    draws: str  # the set of draws it belongs to (dev, validation, ...)
+    seed: int  # that set's seed
     index: int
     values: dict[str, Any]  # varied field -> its value in this scene
     overrides: list[str]  # the base scenario's --set (the study's own first), this sample's, in that order
@@ -73,11 +75,13 @@ def grid_points(spec: StudySpec) -> list[dict[str, Any]]:
 
 
 class Sampler:
-    """Draws the samples of a study over its base scenario; `check(scenario)` returns why a scene is impossible
-    (None: possible). A sample is a scene for every grid point, so each point's scenario passes the check."""
+    """Draws the samples of one set of draws (`seed`) of a study over its base scenario; `check(scenario)` returns
+    why a scene is impossible (None: possible). A sample is a scene for every grid point, so each point's scenario
+    passes the check."""
 
-    def __init__(self, spec: StudySpec, scenario_path: Path, check=None):
+    def __init__(self, spec: StudySpec, scenario_path: Path, check=None, draws: tuple[str, int] = ("dev", 0)):
         self.spec, self.path, self.check = spec, scenario_path, check
+        self.draws, self.seed = draws
         self.points = grid_points(spec)
         self.base = load_scenario(scenario_path, spec.set)
         self.base_values = self.base.model_dump(mode="json")
@@ -93,14 +97,14 @@ class Sampler:
         return load_scenario(self.path, overrides)
 
     def sample(self, index: int) -> Sample:
-        rng = np.random.default_rng([self.spec.seed, index])
+        rng = np.random.default_rng([self.seed, index])
         rejected: list[str] = []
         for _ in range(self.spec.check.max_tries):
             values = {key: draw(d, rng, value_at(self.base_values, key)) for key, d in self.spec.vary.items()}
             overrides = list(self.spec.set) + [override(k, v) for k, v in values.items()]
             why = self._refusal(overrides)
             if why is None:
-                return Sample(index, values, overrides, rejected)
+                return Sample(self.draws, self.seed, index, values, overrides, rejected)
             rejected.append(why)
         raise ScenarioError(
             f"sample {index}: no possible scene in {self.spec.check.max_tries} draws (check.max_tries); "

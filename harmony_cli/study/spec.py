@@ -1,5 +1,10 @@
-"""A study file: a base scenario, how many samples, a seed, distributions over scenario fields and optional grid
-axes crossed with them. Read through the same gate as scenarios (one line per mistake)."""
+"""A study file: a base scenario, named sets of draws (a seed and a number of samples each), distributions over
+scenario fields and optional grid axes crossed with them. Read through the same gate as scenarios (one line per
+mistake).
+
+Sets of draws keep development and reporting apart: `dev` is for finding and diagnosing failures, `validation` is
+run to report and never to choose between variants, and a test set whose seed is not in the file is run with
+`--draws test --seed S --samples N` on what lands."""
 
 from __future__ import annotations
 
@@ -61,6 +66,13 @@ def _pairs(low: Value, high: Value) -> list[tuple[float, float]]:
     return [(float(low), float(high))]  # type: ignore[arg-type]
 
 
+class DrawSet(Strict):
+    """One set of draws: sample i of it is drawn from a stream seeded with (seed, i)."""
+
+    seed: int = Field(ge=0)
+    samples: PositiveInt = Field(le=MAX_SAMPLES)
+
+
 class SceneCheck(Strict):
     """Impossible samples are rejected and drawn again (sample i keeps its own random stream)."""
 
@@ -74,13 +86,23 @@ class StudySpec(Strict):
     description: str = ""
     scenario: str = Field(description="the base scenario file, relative to the study file")
     set: list[str] = Field([], description="overrides applied to the base scenario, as `--set` takes them")
-    samples: PositiveInt = Field(le=MAX_SAMPLES)
-    seed: int = Field(0, ge=0)
+    draws: dict[str, DrawSet] = Field(
+        min_length=1, description="named sets of draws, e.g. dev and validation; the first is the default"
+    )
     vary: dict[str, Distribution] = Field(
         {}, description="scenario field (dotted; list items by index or name) -> its distribution"
     )
     grid: dict[str, list[Any]] = Field({}, description="scenario field -> values, each crossed with every sample")
     check: SceneCheck = SceneCheck()
+
+    @model_validator(mode="before")
+    @classmethod
+    def _one_set(cls, raw):
+        """`samples:` and `seed:` at the top level (a file with one set of draws) are the set `dev`."""
+        if isinstance(raw, dict) and "draws" not in raw and "samples" in raw:
+            raw = dict(raw)
+            raw["draws"] = {"dev": {"seed": raw.pop("seed", 0), "samples": raw.pop("samples")}}
+        return raw
 
     @model_validator(mode="after")
     def _axes(self) -> StudySpec:
@@ -90,6 +112,22 @@ class StudySpec(Strict):
             if key in self.vary:
                 raise ValueError(f"{key!r} is both varied and a grid axis; choose one")
         return self
+
+
+def draw_set(spec: StudySpec, name: str | None, seed: int | None, samples: int | None) -> tuple[str, DrawSet]:
+    """The set of draws to run: `name` from the file (None: its first), its seed or number of samples replaced when
+    given; a name the file does not have needs both (ScenarioError otherwise)."""
+    name = name or next(iter(spec.draws))
+    written = spec.draws.get(name)
+    if written is None and (seed is None or samples is None):
+        raise ScenarioError(
+            f"--draws {name}: not a set of the study file (it has {', '.join(spec.draws)}); "
+            "give --seed and --samples for a set of your own"
+        )
+    if written is not None:
+        seed = written.seed if seed is None else seed
+        samples = written.samples if samples is None else samples
+    return name, DrawSet(seed=seed, samples=samples)
 
 
 def load_study(path: Path) -> StudySpec:

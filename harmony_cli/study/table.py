@@ -16,6 +16,10 @@ from harmony_cli.study.plan import PlannedRun
 
 TABLE = "study.parquet"
 NOT_RUN = ("interrupted", "killed", "running", "not run")  # statuses that are no result (the run did not end)
+# Outcomes of a run that ended before the robot moved: a proof from geometry that the scene has no solution (not a
+# draw of the controller's: out of the denominator), or the controller's stance search finding none (its failure)
+IMPOSSIBLE, NO_STANCE = "impossible", "no stance"
+SUCCESS, SUCCESS_TIMED_OUT = "success", "success, a phase timed out"  # both successes; the second counted apart
 
 
 def _failed_first(summary: dict) -> dict | None:
@@ -26,19 +30,21 @@ def _failed_first(summary: dict) -> dict | None:
 
 
 def outcome(summary: dict) -> str:
-    """success | a task failure (dropped, collision, ...) | `run failed: <category>` | interrupted | not run."""
+    """success (or success with a phase that timed out) | a task failure (dropped, collision, ...) | impossible |
+    no stance | `run failed: <category>` | interrupted | not run."""
     status = summary.get("status", "not run")
     if status in NOT_RUN:
         return "interrupted" if status != "not run" else status
     if first := _failed_first(summary):
         return first["category"]
     if status != "completed":
-        return f"run failed: {summary.get('failure', 'error')}"
+        failure = summary.get("failure", "error")
+        return failure if failure in (IMPOSSIBLE, NO_STANCE) else f"run failed: {failure}"
     task = summary.get("task")
     if task is None:  # a hand trajectory: success is every solve succeeding
-        return "success" if summary.get("failed_solves") == 0 else "solver failures"
+        return SUCCESS if summary.get("failed_solves") == 0 else "solver failures"
     if task.get("success"):
-        return "success"
+        return SUCCESS_TIMED_OUT if task.get("timed_out_phases") else SUCCESS
     return (task.get("failure") or {}).get("category") or failure_category(task)  # older runs: no failure
 
 
@@ -66,6 +72,8 @@ def run_row(run: PlannedRun, run_dir: Path) -> dict[str, Any]:
         summary = {"status": "not run" if not run_dir.is_dir() else "killed"}
     result = outcome(summary)
     row: dict[str, Any] = {
+        "draws": run.sample.draws,
+        "seed": run.sample.seed,
         "sample": run.sample.index,
         "point": run.label,
         "key": run.key,
@@ -73,7 +81,7 @@ def run_row(run: PlannedRun, run_dir: Path) -> dict[str, Any]:
         "status": summary.get("status"),
         "failure": summary.get("failure"),
         "outcome": result,
-        "success": result == "success" if summary.get("status") not in NOT_RUN else None,
+        "success": result in (SUCCESS, SUCCESS_TIMED_OUT) if summary.get("status") not in NOT_RUN else None,
         "reason": run_reason(summary),
         "resamples": len(run.sample.rejected),
         "rejected": list(run.sample.rejected),  # why each earlier draw of the sample was refused

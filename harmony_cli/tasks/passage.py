@@ -3,10 +3,10 @@ the footprint at its narrowest fits between the standing bodies, each kept at it
 
 A necessary condition, not a plan: a base passes a gap between two bodies only if the gap is at least the
 footprint's width across it, and never narrower than its narrowest width; the disc of that width passes every
-such gap. A cell is free when the disc fits at its centre; the fill joins diagonal neighbours, and a goal may be
-anywhere within the disc's radius of a filled cell. Resolution: a gap within a cell (2 cm) of the limit may be
-judged either way; a footprint whose narrow axis is far off its origin may pass where it cannot. The grid spans
-every body with a free ring around them, so a way round the outside of a wall counts."""
+such gap. A cell is free when the disc, a cell (2 cm) narrower, fits at its centre, so that a gap within a cell of
+the limit is judged passable; the fill joins diagonal neighbours, and a goal may be anywhere within the disc's
+radius of a filled cell. A footprint whose narrow axis is far off its origin may pass where it cannot. The grid
+spans every body with a free ring around them, so a way round the outside of a wall counts."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from scipy import ndimage
 
 from harmony_cli.maths.shapes import Shape
 
-CELL = 0.02  # [m] gaps within a cell of the limit may be judged either way
+CELL = 0.02  # [m] the grid's spacing; gaps within a cell of the limit are judged passable
 DIRECTIONS = 180  # directions over a half turn in which the footprint's width is measured
 
 
@@ -47,7 +47,7 @@ class Passage:
             )
             xs, ys = (self.origin[i] + CELL * np.arange(low[i], high[i]) for i in (0, 1))
             centres = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1).reshape(-1, 2)
-            fits = planar_distance(body, centres) - margin >= self.radius
+            fits = planar_distance(body, centres) - margin >= self.radius - CELL
             free[low[0] : high[0], low[1] : high[1]] &= fits.reshape(len(xs), len(ys))
         labels, _ = ndimage.label(free, structure=np.ones((3, 3)))
         i, j = self._cell(np.atleast_2d(start))

@@ -1,13 +1,14 @@
-"""Impossible scenes, refused before they run: an obstacle overlapping a table, the box (where it starts or at its
-goal) or the robot's start (within the obstacle's margin, which the whole-body MPC must keep); a hand target that
-no collision-free base pose brings within the arm's reach, or none the base can drive to from its start
-(passage.py); a blocked stance at the box or its goal for which a search finds no base pose that works there
-(stance_check.py: a search, not a proof). Collision-free: the footprint clear of obstacles and table legs (it may
-pass under a table's top), the trunk (robot.trunk) out from under the tops at its height.
+"""Impossible scenes, refused before they run, on a proof from geometry alone: bodies overlapping (an obstacle and a
+table, the box where it starts or at its goal, or the robot's start), or a hand target beyond the arm's reach from
+every base pose whose footprint clears the bodies' physical outlines (margins not included), or from every such
+pose the base can drive to from its start (passage.py). The margins the controllers keep are their preference,
+not the world's: a scene they cannot solve within them is their failure, and counts.
 
-Geometry is planar where the bodies are vertical prisms (tables, boxes, cylinders, the base footprint) and exact
-for them; heights are compared as intervals. The reach test is a necessary condition only (the arm's links laid
-end to end from its first moving joint): a scene it passes may still be beyond what the controller can do."""
+Geometry is planar where the bodies are vertical prisms (tables, boxes, cylinders, the base footprint as the robot
+section declares it) and exact for them; heights are compared as intervals. The reach is a bound that holds for
+every joint value (robot/reach_bound.py); the grid of base poses tried errs towards "reachable" by how far a true
+pose can be from the nearest one tried. Collision-free: the footprint clear of obstacles and table legs (it may
+pass under a table's top), the trunk (robot.trunk) out from under the tops at its height."""
 
 from __future__ import annotations
 
@@ -18,15 +19,13 @@ import numpy as np
 
 from harmony_cli.maths.shapes import Shape, obstacle_shape, table_legs, table_shape
 from harmony_cli.robot.model import Robot
-from harmony_cli.robot.reach import hand_radius
+from harmony_cli.robot.reach_bound import ReachBound, reach_bound
 from harmony_cli.scenario import Scenario, robot_of
 from harmony_cli.tasks.as_written import heights_meet, target_position, trunk_under_tops, z_range
 from harmony_cli.tasks.passage import Passage, planar_distance
-from harmony_cli.tasks.stance_check import unposed
 
 BASE_YAWS = 16  # base headings tried at each candidate position
 BASE_STEP = 0.05  # [m] spacing of candidate base positions
-REACH_SLACK = 0.05  # [m] added to the arms' reach (robot/reach.py finds a reach they have, maybe not the farthest)
 
 
 def planar_gap(a: Shape, b: Shape) -> float:
@@ -57,6 +56,7 @@ class SceneCheck:
     def __init__(self, scenario_dir: Path, clearance: float = 0.0):
         self.scenario_dir, self.clearance = scenario_dir, clearance
         self._robots: dict[str, Robot] = {}
+        self._bounds: dict[str, list[ReachBound]] = {}
 
     def __call__(self, scenario: Scenario) -> str | None:
         """Why the scene is impossible, or None."""
@@ -67,6 +67,14 @@ class SceneCheck:
         if key not in self._robots:
             self._robots[key] = robot_of(scenario, self.scenario_dir)
         return self._robots[key]
+
+    def bounds(self, scenario: Scenario) -> list[ReachBound]:
+        """Each hand's reach bound (robot/reach_bound.py)."""
+        key = scenario.robot.model_dump_json(exclude={"base_pose"})
+        if key not in self._bounds:
+            robot = self.robot(scenario)
+            self._bounds[key] = [reach_bound(robot, h) for h in range(len(robot.end_effectors))]
+        return self._bounds[key]
 
     def _overlap(self, scenario: Scenario) -> str | None:
         world, robot = scenario.world, scenario.robot
@@ -86,20 +94,16 @@ class SceneCheck:
                     return f"obstacle {obstacle.name} overlaps {name} ({_gap_text(gap)})"
             for circle in footprint:
                 gap = planar_gap(shape, circle)
-                if gap < obstacle.margin:
-                    return (
-                        f"obstacle {obstacle.name} is {_gap_text(gap)} from the robot's start, "
-                        f"inside its margin {obstacle.margin:g} m"
-                    )
+                if gap < 0.0:
+                    return f"obstacle {obstacle.name} overlaps the robot's start ({_gap_text(gap)})"
         return None
 
     def unreachable(self, scenario: Scenario) -> str | None:
         """Why some phase's hand targets cannot be reached (no collision-free base pose has them all within the
-        arms' reach, or none the base can drive to from its start, or, where the written stance is blocked, no base
-        pose found from which the hands work there: stance_check.py), or None."""
+        arms' reach, or none the base can drive to from its start), or None."""
         if scenario.task is None:
             return None
-        blocked, robot, spec = _static_outlines(scenario), self.robot(scenario), scenario.robot
+        blocked, bounds, spec = _static_outlines(scenario), self.bounds(scenario), scenario.robot
         trunk = trunk_under_tops(scenario)
         phases = []
         for phase in scenario.task.phases:
@@ -116,19 +120,18 @@ class SceneCheck:
         for name, targets in phases:
             if not targets:
                 continue
-            radii = [hand_radius(robot, h, float(t[2])) for h, _, t in targets]
+            radii = [bounds[h].radius(float(t[2])) for h, _, t in targets]
             found = _base_place(radii, np.array([t for *_, t in targets]), blocked, circles, passage, trunk)
             where = " and ".join(f"the {label} hand's target {np.round(t, 3).tolist()}" for _, label, t in targets)
             if found == "out of reach":
                 return f"phase {name}: {where} out of reach from every collision-free base pose"
             if found == "no passage" and passage is not None:
-                margins = sorted({f"{m:g}" for _, m in blocked})
                 return (
                     f"phase {name}: no passage for the base from its start to where {where} in reach; the "
-                    f"footprint is {passage.width:.3f} m wide at its narrowest, so a gap must be wider than "
-                    f"{passage.width:.3f} m plus the margins of the bodies on either side ({' / '.join(margins)} m)"
+                    f"footprint is {passage.width:.3f} m wide at its narrowest, and no gap between the bodies "
+                    f"is that wide"
                 )
-        return unposed(scenario, robot)
+        return None
 
 
 def _base_place(
@@ -142,11 +145,11 @@ def _base_place(
     """Whether some base pose (a grid of positions x BASE_YAWS headings) has its footprint clear of `blocked` and
     its `trunk` circles out from under the table tops at their height, every target (n, 3) within its hand's
     plan-view `radii` of the base's origin and the `passage` to it from the start: "ok", "out of reach" or "no
-    passage". Conservative (a necessary condition): the radii grow by REACH_SLACK and the margins shrink by how far
-    a true pose can be from the nearest one tried."""
+    passage". Conservative (a necessary condition): the radii grow and the bodies shrink by how far a true pose can
+    be from the nearest one tried."""
     if any(r is None for r in radii):
         return "out of reach"
-    reach = np.array(radii, dtype=float) + REACH_SLACK + BASE_STEP / np.sqrt(2)
+    reach = np.array(radii, dtype=float) + BASE_STEP / np.sqrt(2)
     span = np.arange(-reach.max(), reach.max() + BASE_STEP, BASE_STEP)
     grid = targets[:, :2].mean(axis=0) + np.stack(np.meshgrid(span, span), axis=-1).reshape(-1, 2)
     near = grid[(np.linalg.norm(grid[:, None] - targets[None, :, :2], axis=2) <= reach).all(axis=1)]
@@ -167,7 +170,7 @@ def _base_place(
         centres = (near[:, None, :] + (circles[:, :2] @ turn)[None]).reshape(-1, 2)  # (positions x circles, 2)
         clear = np.ones(len(centres), dtype=bool)
         for shape, margin in near_target:
-            clear &= planar_distance(shape, centres) - np.tile(circles[:, 2] + give, len(near)) >= margin
+            clear &= planar_distance(shape, centres) - np.tile(circles[:, 2] - give, len(near)) >= margin
         fits = clear.reshape(len(near), len(circles)).all(axis=1)
         for circle, top in trunk:
             centre = near + circle[:2] @ turn
@@ -192,10 +195,10 @@ def _footprint(circles, pose) -> list[Shape]:
 
 
 def _static_outlines(scenario: Scenario) -> list[tuple[Shape, float]]:
-    """What a base must keep clear of, with the margin: static obstacles and table legs."""
-    shapes = [(obstacle_shape(o), o.margin) for o in scenario.world.obstacles if o.motion is None]
+    """What a base cannot stand in, with no margin: static obstacles and table legs, their physical outlines."""
+    shapes = [obstacle_shape(o) for o in scenario.world.obstacles if o.motion is None]
     legs = [leg for t in scenario.world.tables for leg in table_legs(t)]
-    return shapes + [(leg, scenario.robot.base_margin) for leg in legs]
+    return [(shape, 0.0) for shape in shapes + legs]
 
 
 def _gap_text(gap: float) -> str:

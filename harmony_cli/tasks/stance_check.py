@@ -1,13 +1,9 @@
-"""A scene whose hands cannot work where the scenario puts them, refused before the robot moves (issue 14). Where the
-written stance at the box or at its goal is blocked (stance.py), a base pose that works there is searched for
-(stance_pose.py) from SEARCH's starts, the planning search's first; none found refuses the scene, naming the phases,
-the pivot and what blocks the written stance.
-
-Not a proof: each start is a local solve. Why refuse on it: in the randomised study (docs/results.md) each of the 28
-runs with a blocked stance that succeeded had a pose found from the planning search's 8 starts; each of the 4 with
-none failed (dropped, box off goal, tipped), and for two of them none is found from 300 starts either. A run that
-tries such a place squeezes a box it cannot reach, or drives about until its phase times out. Obstacles that move
-are left out: where one starts does not block a stance for good."""
+"""The controller's search for a stance before the robot moves: where the written stance at the box or at its goal
+is blocked (stance.py), a base pose that works there is searched for (stance_pose.py) from SEARCH's starts, the
+planning search's first. None found ends the run as the controller's failure (`no stance`), naming the phases, the
+pivot and what blocks the written stance: each start is a local solve, so none found is not a proof that none
+exists, and such a draw stays in a study's denominator. Obstacles that move are left out: where one starts does
+not block a stance for good."""
 
 from __future__ import annotations
 
