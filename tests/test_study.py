@@ -20,7 +20,7 @@ from typer.testing import CliRunner
 from harmony_cli.cli import app
 from harmony_cli.experiment.run import run_scenario
 from harmony_cli.maths.shapes import obstacle_shape, table_shape
-from harmony_cli.scenario import ScenarioError
+from harmony_cli.scenario import ScenarioError, load_scenario
 from harmony_cli.study.plan import plan_runs
 from harmony_cli.study.report import refusal_kind, wilson, write_report
 from harmony_cli.study.runner import Options, plan_study, run_study
@@ -75,6 +75,7 @@ def test_the_table_has_one_row_per_run_with_every_scalar_of_its_summary_and_resu
     first = run_study(STUDY, Options(out=out, samples=3, progress=False, plots="none"))
     table = pd.read_parquet(out / TABLE)
     assert (first.ran, first.skipped, len(table)) == (3, 0, 3) and list(table["sample"]) == [0, 1, 2]
+    assert load_scenario(out / "base_scenario.yaml").sim.duration == 0.4  # the base scene with the study's set:
     for row in table.to_dict("records"):
         summary = json.loads((Path(row["run_dir"]) / "summary.json").read_text())
         scalars = {

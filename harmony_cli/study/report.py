@@ -18,6 +18,7 @@ import yaml
 from scipy.stats import binomtest
 
 from harmony_cli.report.figure import plt, save
+from harmony_cli.study.draw_map import draw_map
 from harmony_cli.study.table import IMPOSSIBLE, SUCCESS, SUCCESS_TIMED_OUT, TABLE
 
 METRICS = (  # (column or prefix, what it is, unit scale, unit): distributions in the report
@@ -133,7 +134,7 @@ def _pct(x: float) -> str:
 
 
 def write_report(study: Path) -> list[Path]:
-    """report.md, outcomes.png, metrics.png and success_vs_<field>.png in the study directory."""
+    """report.md, outcomes.png, metrics.png, success_vs_<field>.png and draws_map.png in the study directory."""
     table = pd.read_parquet(study / TABLE)
     rates = success_rates(table)
     spec = study / "study.yaml"  # the study file as run
@@ -172,6 +173,11 @@ def write_report(study: Path) -> list[Path]:
     figures = [_plot_outcomes(counts, study), _plot_metrics(table, study)]
     figures += [_plot_success_vs(table, column, study) for column in varied_columns(table)]
     lines += ["", "## Figures", ""] + [f"![{f.stem}]({f.name})" for f in figures]
+    base = study / "base_scenario.yaml"  # the base scene as run; without it the map has the draws alone
+    if drawn := draw_map(table, yaml.safe_load(base.read_text()) if base.is_file() else None, study / "draws_map.png"):
+        figures.append(drawn)
+        lines += ["", f"{drawn.name}: each draw's robot start, box and obstacles in plan view, coloured by outcome."]
+        lines += ["", f"![{drawn.stem}]({drawn.name})"]
     report = study / "report.md"
     report.write_text("\n".join(lines) + "\n")
     return [report, *figures]

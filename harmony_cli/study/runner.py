@@ -11,7 +11,7 @@ import pandas as pd
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from harmony_cli.experiment.interrupts import RunInterrupted
-from harmony_cli.scenario import ScenarioError
+from harmony_cli.scenario import ScenarioError, load_scenario, scenario_yaml
 from harmony_cli.study.execute import Job, run_here, run_pool, run_ray
 from harmony_cli.study.plan import PlannedRun, code_version, plan_runs
 from harmony_cli.study.sampling import Sampler
@@ -115,6 +115,8 @@ def run_study(path: Path, options: Options) -> StudyOutcome:
     spec, out, runs, rows, todo = plan.spec, plan.out, plan.runs, plan.rows, plan.todo
     out.mkdir(parents=True, exist_ok=True)
     (out / "study.yaml").write_text(path.read_text())
+    base = scenario_yaml(load_scenario(plan.scenario_path, spec.set))  # the base scene, for the report's map
+    (out / "base_scenario.yaml").write_text(base)
     for run in todo:
         shutil.rmtree(out / "runs" / run.name, ignore_errors=True)  # a run again starts from nothing
         rows[run.name] = run_row(run, out / "runs" / run.name)
