@@ -127,3 +127,20 @@ def test_a_blocked_grip_reached_through_an_approach_phase_gets_no_route_point():
     scenario = load_scenario(PAPER, ["world.obstacles.cylinder.position=[3.2,1.6,1.0]"])
     references = TaskReferences(robot_of(scenario, PAPER.parent), scenario)
     assert references.stances[0].warning() is not None and references.vias == {}
+
+
+def test_the_pose_found_faces_the_pads_across_the_targets_whatever_the_robot_s_start_yaw():
+    from harmony_cli.tasks.stance_check import home_hands
+
+    for yaw_deg in (0.0, 40.0):
+        scenario = load_scenario(PAPER, [*BLOCKED, f"robot.base_pose=[0.0,0.0,{yaw_deg}]"])
+        robot = robot_of(scenario, PAPER.parent)
+        targets, _ = _place(scenario, robot)
+        d = targets[:, 1] - targets[:, 0]
+        headings = np.arctan2(d[:, 1], d[:, 0]) + home_hands(robot)[1]  # the planner's: 0 at home as it starts
+        _, joints = stance_pose(scenario, robot, targets, headings)
+        for q, pair in zip(joints, targets):
+            across = (pair[1] - pair[0]) / np.linalg.norm(pair[1] - pair[0])
+            for h, (_, rotation) in enumerate(robot.hand_poses_numeric(q)):
+                normal = rotation[:, 2]  # the pad's normal points at the other pad
+                assert normal @ (across if h == 0 else -across) > np.cos(np.deg2rad(3.0)), (yaw_deg, h)

@@ -61,7 +61,9 @@ def stance_poses(
     """stance_pose's poses from every one of `starts` (STARTS) that converges, in the order tried (`first`: stop at
     the first), the same pose found twice (within SAME_M and SAME_RAD) once."""
     home = home_at_origin(robot)
-    rotations = [r for _, r in robot.hand_poses_numeric(home)]
+    # headings are the planner's, 0 at home as the robot starts: the pads turn from there, the base from its yaw
+    rotations = [r for _, r in robot.hand_poses_numeric(robot.home)]
+    start_yaw = float(robot.home[robot.base_joints[2]])
     free, lower, upper = arm_joints(robot)
     base = cs.SX.sym("base", 3)
     clearances, poses = scene_clearances(scenario.world, scenario.planner.hand_radius, scenario.robot.base_margin)
@@ -84,9 +86,7 @@ def stance_poses(
             rows.append((cs.vertcat(*clearance_margins(robot, q, ref, layout, clearances, footprint)), 0.0, np.inf))
         variables.append(x)
         cost += cs.sumsqr(x - home[free])
-    g = cs.vertcat(*[r for r, _, _ in rows])
-    lbg = np.concatenate([np.full(r.numel(), lo) for r, lo, _ in rows])
-    ubg = np.concatenate([np.full(r.numel(), hi) for r, _, hi in rows])
+    g, lbg, ubg = _stacked(rows)
     lbx = np.r_[np.full(3, -np.inf), np.tile(lower, len(targets))]
     ubx = np.r_[np.full(3, np.inf), np.tile(upper, len(targets))]
     options = {"ipopt.print_level": 0, "print_time": False, "ipopt.max_iter": 300, "ipopt.sb": "yes"}
@@ -95,7 +95,7 @@ def stance_poses(
     middle = targets.mean(axis=(0, 1))[:2]
     found: list[tuple[np.ndarray, np.ndarray]] = []
     for turn_deg, share in starts:
-        yaw = float(headings[-1]) + np.deg2rad(turn_deg)
+        yaw = start_yaw + float(headings[-1]) + np.deg2rad(turn_deg)
         start = np.r_[middle - share * rot_z(np.asarray(yaw))[:2, :2] @ behind, yaw]
         with captured_output():
             out = solver(x0=np.r_[start, np.tile(home[free], len(targets))], lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
@@ -110,6 +110,13 @@ def stance_poses(
         if first:
             break
     return found
+
+
+def _stacked(rows: list) -> tuple:
+    """The rows (expression, lower, upper) as one constraint vector and its bounds."""
+    g = cs.vertcat(*[r for r, _, _ in rows])
+    lbg = np.concatenate([np.full(r.numel(), lo) for r, lo, _ in rows])
+    return g, lbg, np.concatenate([np.full(r.numel(), hi) for r, _, hi in rows])
 
 
 def _same(a: np.ndarray, b: np.ndarray) -> bool:
