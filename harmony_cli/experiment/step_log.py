@@ -63,6 +63,10 @@ def step_record(
         row[robot_column] = clearance
         if name in truth.clearance_box_m:
             row[box_column] = truth.clearance_box_m[name]
+    for name, depth in truth.contact_robot_m.items():  # PyBullet's contact points (sim/touches.py)
+        row[_contact_column("robot", name)] = depth
+    for name, depth in truth.contact_box_m.items():
+        row[_contact_column("box", name)] = depth
     return row
 
 
@@ -86,6 +90,11 @@ def _obstacle_columns(name: str) -> tuple[str, ...]:
 @cache
 def _clearance_columns(name: str) -> tuple[str, str]:
     return f"clearance_robot_{name}_m", f"clearance_box_{name}_m"
+
+
+@cache
+def _contact_column(who: str, name: str) -> str:
+    return f"contact_{who}_{name}_m"
 
 
 class _HandColumns(NamedTuple):

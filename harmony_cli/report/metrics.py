@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 
 from harmony_cli.report.task_failure import fell_at, task_failure
+from harmony_cli.report.touches import touches
 from harmony_cli.tasks.schedule import REACHED
 
 if TYPE_CHECKING:
@@ -50,7 +51,8 @@ UPRIGHT_DEG = 10.0
 
 
 def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> dict:
-    """Success (box on its goal within 5 cm, upright, never dropped), clearances, phase completion, loop time."""
+    """Success (box on its goal within 5 cm, upright, never dropped, no touch of a table or an obstacle: report/
+    touches.py), clearances, phase completion and lateness, loop time."""
     out: dict = {
         "loop_time_ms": time_stats_ms(steps["loop_ms"]),
         "planner_time_ms": time_stats_ms(steps["planner_ms"].dropna()),
@@ -66,28 +68,17 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
     out["min_clearance_m"] = clearances
     moving = [o.name for o in scenario.world.obstacles if o.motion is not None]
     out["min_clearance_moving_m"] = {name: clearances[name] for name in moving if name in clearances}
-    phases = []
-    goal_error = steps[[f"{h}_goal_error_m" for h in hands]].max(axis=1)
-    for index, phase in enumerate(scenario.task.phases if scenario.task else []):
-        rows = steps["phase_index"] == index
-        reached = steps["t"][rows & (goal_error < REACHED + phase.squeeze / 2)]  # a squeeze goal is inside the box
-        start = float(steps["t"][rows].min()) if rows.any() else None
-        phases.append(
-            {
-                "name": phase.name,
-                "start_s": start,
-                "completed_s": float(reached.min()) if len(reached) else None,
-                "final_goal_error_m": float(goal_error[rows].iloc[-1]) if rows.any() else None,
-                "waited_s": float(np.ptp(steps["delay_s"][rows])) if rows.any() and "delay_s" in steps else 0.0,
-            }
-        )
-    out["phases"] = phases
+    out["phases"] = phases = phase_outcomes(steps, scenario, hands)
+    out["late_s"] = float(sum(p["late_s"] for p in phases))  # how far the waits moved the schedule
+    out["timed_out_phases"] = [p["name"] for p in phases if p["timed_out"]]
+    out["contacts"] = touches(steps, {t.name for t in scenario.world.tables})
     clear = all(v > 0 for c in clearances.values() for v in c.values())
+    untouched = not out["contacts"]  # no contact with a table or an obstacle (a clearance <= 0 is one too)
     solved = out["planner_failures"] == 0 and bool(steps["success"].astype(bool).all())
-    out |= {"clear_of_obstacles": clear, "all_solves_succeeded": solved}
+    out |= {"clear_of_obstacles": clear, "contact_free": untouched, "all_solves_succeeded": solved}
     box = scenario.world.box
     if box is None:  # success: every phase's goal reached, never touching an obstacle, no failed solve
-        out["success"] = bool(clear and solved and all(p["completed_s"] is not None for p in phases))
+        out["success"] = bool(untouched and solved and all(p["completed_s"] is not None for p in phases))
     elif "box_x" in steps:
         final = steps[["box_x", "box_y", "box_z"]].iloc[-1].to_numpy()
         fell = fell_at(steps, [t.height for t in scenario.world.tables], box.size[2])
@@ -102,11 +93,38 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
             "box_upright": upright,
             "box_dropped": dropped,
             "box_fell_s": fell,
-            "success": bool(error is not None and error <= GOAL_TOLERANCE and upright and not dropped and clear),
+            "success": bool(error is not None and error <= GOAL_TOLERANCE and upright and not dropped and untouched),
         }
     if "success" in out:
         out["failure"] = task_failure(out, steps)
     return out
+
+
+def phase_outcomes(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> list[dict]:
+    """Per task phase: `start_s`; `completed_s`, when its hands first reached its goal (None: never);
+    `final_goal_error_m` at its last step; `waited_s`, how long it waited for its goal past its end as written
+    (moved by the earlier phases' waits; tasks/schedule.py); `late_s`, how late it ended, which is that wait (a
+    wait lasts until the goal is reached, at most the phase's own duration); `timed_out`: it waited and its goal
+    was still not reached at its last step (the next phase started without it)."""
+    phases = []
+    goal_error = steps[[f"{h}_goal_error_m" for h in hands]].max(axis=1)
+    for index, phase in enumerate(scenario.task.phases if scenario.task else []):
+        rows = steps["phase_index"] == index
+        at_goal = rows & (goal_error < REACHED + phase.squeeze / 2)  # a squeeze goal is inside the box
+        reached = steps["t"][at_goal]
+        waited = float(np.ptp(steps["delay_s"][rows])) if rows.any() and "delay_s" in steps else 0.0
+        phases.append(
+            {
+                "name": phase.name,
+                "start_s": float(steps["t"][rows].min()) if rows.any() else None,
+                "completed_s": float(reached.min()) if len(reached) else None,
+                "final_goal_error_m": float(goal_error[rows].iloc[-1]) if rows.any() else None,
+                "waited_s": waited,
+                "late_s": waited,
+                "timed_out": bool(waited > 0 and not at_goal[rows].iloc[-1]),
+            }
+        )
+    return phases
 
 
 def first_held(steps: pd.DataFrame, column: str) -> float | None:

@@ -1,10 +1,11 @@
 """Why a task did not succeed: one category and a reason that says what, where and when, from a run's per-step
 table and its task outcome (summary.json `task`), so nobody has to dig it out of steps.csv.
 
-Categories, the first that applies: dropped (the box left the hands while held, or fell off the tables), collision,
-box tipped, box off goal, then (a task without a box: every phase must reach its goal) phase timeout, and solver
-failures. A phase that waited for its goal and never reached it (tasks/schedule.py) is named after the reason, as
-before or after it: a carry that waits in vain because the box fell earlier did not cause the fall."""
+Categories, the first that applies: dropped (the box left the hands while held, or fell off the tables), collision
+(the robot touched a table or an obstacle, or the box an obstacle: report/touches.py), box tipped, box off goal,
+then (a task without a box: every phase must reach its goal) phase timeout, and solver failures. A phase that
+waited for its goal and never reached it (tasks/schedule.py) is named after the reason, as before or after it: a
+carry that waits in vain because the box fell earlier did not cause the fall."""
 
 from __future__ import annotations
 
@@ -105,12 +106,27 @@ def _touched(task: dict, steps: pd.DataFrame) -> tuple[str, str, float, pd.Serie
 
 
 def _collision(task: dict, steps: pd.DataFrame) -> str:
+    """Every touch of the run, the earliest first (report/touches.py); from the smallest clearance when the
+    outcome lists no touches (written before contacts were read)."""
+    if task.get("contacts"):
+        return "; ".join(
+            f"the {c['who']} touched {c['body']} at t = {c['first_s']:.2f} s"
+            + (f" ({c['phase']})" if c.get("phase") else "")
+            + f", {max(0.0, -1e3 * c['deepest_m']):.1f} mm deep at most, in {c['steps']} steps"
+            for c in task["contacts"]
+        )
     name, who, value, touching = _touched(task, steps)
     return f"the {who} touched obstacle {name} at {_when(steps, touching)} (clearance {value:.3f} m)"
 
 
 def _collision_s(task: dict, steps: pd.DataFrame) -> float | None:
+    if task.get("contacts"):
+        return float(task["contacts"][0]["first_s"])
     return _first_time(steps, _touched(task, steps)[3])
+
+
+def _collided(task: dict) -> bool:
+    return task.get("clear_of_obstacles") is False or task.get("contact_free") is False
 
 
 def _tipped(task: dict, steps: pd.DataFrame) -> str:
@@ -148,7 +164,7 @@ def _at_end(task: dict, steps: pd.DataFrame) -> None:
 # box task's last criterion)
 FAILURES: tuple[tuple[str, Callable[[dict], bool], Reason, When], ...] = (
     ("dropped", lambda t: t.get("box_dropped") is True, _dropped, _dropped_s),
-    ("collision", lambda t: t.get("clear_of_obstacles") is False, _collision, _collision_s),
+    ("collision", _collided, _collision, _collision_s),
     ("box tipped", lambda t: t.get("box_upright") is False, _tipped, _at_end),
     ("box off goal", lambda t: t.get("box_goal_error_m") is not None, _off_goal, _at_end),
     ("phase timeout", lambda t: any(p.get("completed_s") is None for p in t.get("phases", [])), _timeout, _at_end),
@@ -188,7 +204,7 @@ def _timed_out(task: dict, steps: pd.DataFrame, failed_s: float | None) -> str:
     """The first phase that waited for its goal and never reached it, and whether it gave up before or after the
     failure at `failed_s` (None: the end of the run), or ''. A phase gives up when the next one starts."""
     phases = task.get("phases", [])
-    i = next((i for i, p in enumerate(phases) if p.get("waited_s") and p.get("completed_s") is None), None)
+    i = next((i for i, p in enumerate(phases) if _gave_up(p)), None)
     if i is None:
         return ""
     phase = phases[i]
@@ -200,3 +216,11 @@ def _timed_out(task: dict, steps: pd.DataFrame, failed_s: float | None) -> str:
         f"; {order} that, phase {phase['name']} timed out: its goal not reached after waiting "
         f"{phase['waited_s']:.1f} s (the hands {away} from it)"
     )
+
+
+def _gave_up(phase: dict) -> bool:
+    """A phase that timed out: it waited and never reached its goal (`timed_out`; outcomes written before it:
+    waited and never completed)."""
+    if "timed_out" in phase:
+        return bool(phase["timed_out"])
+    return bool(phase.get("waited_s")) and phase.get("completed_s") is None

@@ -16,6 +16,7 @@ from harmony_cli.robot.observation import Observation
 from harmony_cli.sim import PYBULLET_BANNER
 from harmony_cli.sim.contacts import PadContacts, pad_contacts
 from harmony_cli.sim.pushes import Pushes
+from harmony_cli.sim.touches import Touches
 from harmony_cli.sim.world import World
 from harmony_cli.sim.wrench import WristSensors, rotation_matrices
 
@@ -39,6 +40,10 @@ class Truth:
     obstacle_positions: dict[str, np.ndarray]  # moving obstacles' centres as PyBullet has them
     clearance_robot_m: dict[str, float]  # per obstacle, the robot's true distance (PyBullet closest points)
     clearance_box_m: dict[str, float]  # per obstacle, the box's
+    # per table and obstacle, the robot's deepest contact [m] (<= 0; nan: none) over the physics steps since the
+    # last command (sim/touches.py); per obstacle, the box's
+    contact_robot_m: dict[str, float]
+    contact_box_m: dict[str, float]
 
 
 IDEAL_EFFORT = 1e4  # [N m | N] motor force limit of robot.actuators: ideal
@@ -89,6 +94,8 @@ class Simulation:
         self.pad_friction = ROBOT_FRICTION * (world.box.friction if world is not None and world.box else 0.0)
         base_link = self.joints[robot.base_joints[2]]  # the link the base yaw joint moves
         self.pushes = Pushes(self.client, pushes, self.body, base_link, self.world, sim_spec.physics_dt)
+        w = self.world
+        self.touches = Touches(self.client, self.body, *((w.box, w.tables, w.obstacles) if w else (None, {}, {})))
         self.physics_steps = 0
 
     def observe(self) -> Observation:
@@ -137,6 +144,7 @@ class Simulation:
                 carried = world.clearances(world.box)
             positions = {name: world.obstacle_position(name) for name in world.moving}
             robot = world.clearances(self.body)
+        touches, nan = self.touches, float("nan")
         return Truth(
             box_position=centre,
             box_z_axis=z_axis,
@@ -147,6 +155,8 @@ class Simulation:
             obstacle_positions=positions,
             clearance_robot_m=robot,
             clearance_box_m=carried,
+            contact_robot_m={name: touches.robot_m.get(name, nan) for name in touches.robot_bodies},
+            contact_box_m={name: touches.box_m.get(name, nan) for name in touches.box_bodies},
         )
 
     def apply(self, q_target: np.ndarray, qd_target: np.ndarray) -> None:
@@ -172,11 +182,14 @@ class Simulation:
         )
 
     def step(self, substeps: int) -> None:
+        """`substeps` physics steps under the last command; the touches seen during them are the next truth's."""
+        self.touches.clear()
         for substep in range(substeps):
             self.pushes.apply(self.physics_steps * self.spec.physics_dt)
             if substep == substeps - 1:  # the wrist sensors' accelerations are over the last physics step
                 self.wrists.before_physics_step()
             self.client.stepSimulation()
+            self.touches.after_physics_step()
             self.physics_steps += 1
             if self.world is not None:
                 self.world.move_obstacles(self.time)

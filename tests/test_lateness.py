@@ -1,0 +1,74 @@
+"""A phase that waited for its goal past its end (tasks/schedule.py) is reported late by its wait, and timed out when
+its goal was still not reached as the next phase started (report/metrics.py `phase_outcomes`), on synthetic steps
+tables of the smoke scenario's phases (raise 3 s, approach 4 s, ...)."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from conftest import ROOT
+
+from harmony_cli.report.metrics import phase_outcomes
+from harmony_cli.scenario import load_scenario
+
+DT = 0.1
+HANDS = ["left", "right"]
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return load_scenario(ROOT / "scenarios" / "smoke" / "box_lift.yaml")
+
+
+def _steps(*phases: tuple[np.ndarray, np.ndarray]) -> pd.DataFrame:
+    """Phases back to back, each as (its rows' delay_s, its rows' goal error [m], both hands alike)."""
+    index = np.concatenate([np.full(len(delay), i) for i, (delay, _) in enumerate(phases)])
+    error = np.concatenate([e for _, e in phases])
+    return pd.DataFrame(
+        {
+            "t": DT * np.arange(len(index)),
+            "phase_index": index,
+            "delay_s": np.concatenate([d for d, _ in phases]),
+            "left_goal_error_m": error,
+            "right_goal_error_m": error,
+        }
+    )
+
+
+def _on_time(seconds: float, delay: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """A phase that reaches its goal at its end without waiting."""
+    n = round(seconds / DT)
+    return np.full(n, delay), np.linspace(0.3, 0.01, n)
+
+
+def _waiting(seconds: float, waited: float, error: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A phase that runs its written `seconds`, then waits `waited` more (the delay grows a step at a time)."""
+    n, extra = round(seconds / DT), round(waited / DT)
+    return np.concatenate([np.zeros(n - 1), DT * np.arange(extra + 1)]), error[: n + extra]
+
+
+def test_a_phase_that_waited_and_never_reached_its_goal_timed_out_late_by_its_whole_wait(scenario):
+    """Approach (4 s) waits its whole duration, the hands 0.2 m off: late 4 s, timed out."""
+    steps = _steps(_on_time(3.0), _waiting(4.0, 4.0, np.full(80, 0.2)), _on_time(3.0, delay=4.0))
+    raised, approach, close = phase_outcomes(steps, scenario, HANDS)[:3]
+    assert approach["timed_out"] and approach["late_s"] == pytest.approx(4.0)
+    assert approach["completed_s"] is None
+    assert not raised["timed_out"] and raised["late_s"] == 0.0
+    assert not close["timed_out"] and close["late_s"] == 0.0  # moved by the wait, but on time
+
+
+def test_a_phase_that_waited_then_reached_its_goal_is_late_by_its_wait_and_not_timed_out(scenario):
+    """Approach reaches its goal 1.5 s into its wait: late 1.5 s, completed at that step."""
+    error = np.concatenate([np.full(54, 0.2), np.full(1, 0.01)])  # 4 s as written, then 1.5 s of waiting
+    steps = _steps(_on_time(3.0), _waiting(4.0, 1.5, error), _on_time(3.0, delay=1.5))
+    approach = phase_outcomes(steps, scenario, HANDS)[1]
+    assert approach["late_s"] == pytest.approx(1.5) and not approach["timed_out"]
+    assert approach["completed_s"] == pytest.approx(steps["t"][steps["phase_index"] == 1].iloc[-1])
+
+
+def test_a_phase_that_reached_its_goal_early_but_waited_in_vain_at_its_end_timed_out(scenario):
+    """The goal touched mid-phase and lost again: what counts is the goal at the step the phase gave up."""
+    error = np.full(80, 0.2)
+    error[20] = 0.01
+    steps = _steps(_on_time(3.0), _waiting(4.0, 4.0, error))
+    approach = phase_outcomes(steps, scenario, HANDS)[1]
+    assert approach["completed_s"] is not None and approach["timed_out"] and approach["late_s"] == pytest.approx(4.0)
