@@ -1,7 +1,7 @@
 """steps.jsonl: the per-step log streamed to disk during a run, one JSON object per line (rows may gain keys over
 a run, e.g. a planner's, so not CSV). Rows are buffered and written when 0.1 s of wall time has passed since the
-last write, so a run killed hard keeps all but its last 0.1 s; steps.csv is still written at the end. (Once a
-second, each write serialised ~50 rows: a 23-38 ms pause in the loop (make bench), its p99.9.)"""
+last write, so a run killed hard keeps all but its last 0.1 s; steps.csv is still written at the end. (Written
+less often, each write serialises more rows at once: a pause in the loop that shows in its tail times.)"""
 
 from __future__ import annotations
 

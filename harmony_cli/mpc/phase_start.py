@@ -72,12 +72,11 @@ def first_plan(planner: TaskPlanner, C, t: float, T: float, ends: Ends, iteratio
     """The SQP from the straight line `C`; None on a phase's first step where the horizon as it is and its usual
     stretch both fail from a clear start (an obstacle in the way, most likely) and there is a plan to hold: the
     caller holds it and asks for the route on the next step, so each step runs at most its two failing QPs or the
-    route's SQP (static_obstacles' slide: one loop of 8.5 ms when both ran on one step). With no plan yet (a run's
-    first step) the route now, the line's other horizons if it fails. Otherwise a plan that is not clean asks for a
-    route on the next step, a failed one tries it now. `now`: this step's route was tried already. A start inside a
-    margin keeps the straight line's relaxed rows (never deeper), which a route would not. (A route after the first
-    failure alone, where the line enters an obstacle the hands cannot rise above, took one QP less but also took
-    dynamic_obstacle's carry off the line the SQP bends round the cylinder: box 0.36 cm from its goal, was 0.17.)"""
+    route's SQP (both on one step would set the loop's slowest steps). With no plan yet (a run's first step) the
+    route now, the line's other horizons if it fails. Otherwise a plan that is not clean asks for a route on the
+    next step, a failed one tries it now. `now`: this step's route was tried already. A start inside a margin keeps
+    the straight line's relaxed rows (never deeper), which a route would not. (The route is not tried after the
+    first failure alone: a line the SQP can bend round a moving obstacle would be taken off it.)"""
     obstacles, blocked = planner.obstacles, None
     if fresh and obstacles and not now:
 

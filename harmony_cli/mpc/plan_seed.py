@@ -76,8 +76,8 @@ def route_around(
     behind the hands known (`ground.behind`) and the `headings` (start, goal), the route is the base's
     (_base_route) where the base has to go round something (else the midpoint's, which still takes the hands round
     what is in their way: the paper's static_obstacles slides the box round a crate on the table). Through a `via`
-    (a blocked stance's base pose, stance_plan.py) it stays the midpoint's: as the base's, study samples 32, 38 and
-    45 placed their boxes 5.0-5.8 cm from the goals (within 5 as the midpoint's). Moving obstacles are left to the
+    (a blocked stance's base pose, stance_plan.py) it stays the midpoint's: the via is a pose for the hands to
+    pass, and the base's route through it placed boxes further from their goals. Moving obstacles are left to the
     local SQP (the route is for where things stand)."""
     if carried is not None and via is None and ground is not None and ground.behind is not None and headings:
         based = _base_route(obstacles, start, goal, ground, headings)
@@ -121,10 +121,9 @@ def _base_route(obstacles, start, goal, ground: Ground, headings: tuple[float, f
     stands behind the hands at `start` to where it stands behind them at `goal`, clear of every static obstacle up
     to the hands by its clearance and of the tables by their margins, both plus the base's half width; the midpoint
     rides in front of it, the heading turning evenly from the start's to the goal's as the straight line's does
-    (ROUTE_POINTS along it). Why: the base stands some 0.6 m behind the hands, and the midpoint's route carried the
-    box where the base could not follow (randomised study samples 7, 40 and 49, out from between a cylinder and
-    the pick table's corner: the whole-body MPC's base wedged between them, its clearance rows contradicting at the
-    horizon's end, the commands chattering at 50 Hz, the box dropped; docs/results.md)."""
+    (ROUTE_POINTS along it). Why: the base stands some 0.6 m behind the hands, and the midpoint's route can carry the
+    box where the base cannot follow (out from between an obstacle and a table's corner, the whole-body MPC's base
+    wedges between them, its clearance rows contradict at the horizon's end and a held box may be dropped)."""
     assert ground.behind is not None
     outlines = _outlines(obstacles, ground, (0.0, max(start[:, 2].max(), goal[:, 2].max())), ground.base_radius)
     behind = lambda heading: rot_z(np.asarray(ground.yaw_home + heading))[:2, :2] @ ground.behind  # noqa: E731
@@ -142,8 +141,7 @@ def warm_outlines(obstacles: list[Obstacle], ground: Ground | None) -> None:
     """route_around's outlines of the static obstacles and the tables when the base's half width is the widest
     reach (EVA: 0.38 m against a 0.22 m box), their geometry for the visibility tests and the graph between their
     corners, made ahead (route.footprint, visibility.polygon_of and corner_graph keep them): a phase's first route,
-    inside a control step, then finds them ready (static_obstacles: 2-3 ms of its slowest step; the corner graph
-    took its route from 1.15 to 0.64 ms, docs/results.md).
+    inside a control step, then finds them ready instead of making them in its step.
     Made for every static obstacle; a route at hands' heights that leave one out makes its own graph."""
     if ground is None:
         return
@@ -162,8 +160,8 @@ def on_route(C, ends, obstacles, carried, ground, via, sampling) -> np.ndarray |
 
 def fit_matrix(basis: np.ndarray, free: np.ndarray) -> np.ndarray:
     """The least-squares fit (free columns, S) of a shift at the samples by the free control points of a curve with
-    `basis` (S, M): computed once, when the planner is built. np.linalg.lstsq inside the control step took 1.4-2.2 ms
-    at static_obstacles' route in `make bench`'s process (0.2-0.4 ms in a run of its own); this product, 0.08 ms."""
+    `basis` (S, M): computed once, when the planner is built, so that a route's fit inside the control step is one
+    matrix product instead of a least-squares solve."""
     return np.linalg.pinv(basis[:, free[0]])
 
 

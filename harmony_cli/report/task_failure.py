@@ -16,8 +16,8 @@ import pandas as pd
 
 FELL_BELOW = 0.05  # [m] a box whose centre sinks this far below resting on the lowest table top has fallen off
 # A grasp named in a drop's reason: the box this far off square against the pads (held on its edges), or one pad
-# this far ahead of the other across their axis (their squeeze a couple that turns the box). In the random study
-# (issue 14) grasps were clean (within 0.04 deg and 0.16 mm) or sheared by 8 mm or more (0.04-9 deg off square).
+# this far ahead of the other across their axis (their squeeze a couple that turns the box). Clean grasps are well
+# within both; sheared ones are many times beyond.
 OFF_SQUARE_DEG = 0.5
 SHEAR_M = 0.005
 FRICTION_WINDOW_S = 1.5  # [s] before a drop (flagged once the contact has been lost for a moment; sim/contacts.py)

@@ -2,15 +2,14 @@
 (the box-relative phases: approach, grasp, lift) and its place at one heading (the phases after the grasp with
 absolute targets: carry, lower, release, retreat). The base standing behind those hands as at home (plan_base.py)
 may be inside an obstacle's margin (or a table leg's): the whole-body MPC then stands it elsewhere and twists the
-arms, and a held box may slip. In the randomised study every run that failed had such a stance, most runs with one
-still succeeded: a warning, not a refusal. It names the body and the smallest turn of the group's hand targets
-about its pivot (the box; the box's goal) that would clear the base, for the author to write.
+arms, and a held box may slip. Many such scenes still succeed: a warning, not a refusal. It names the body and the
+smallest turn of the group's hand targets about its pivot (the box; the box's goal) that would clear the base, for
+the author to write.
 
-Turning the targets automatically was tried (issue 14): it changed which runs failed, not how many (the carry to
-a turned place twists the grip instead), so the turn is a suggestion. What harmony does instead for a blocked place
-is find a base pose that works there, route the carry through it and, near a blocked pivot, pull the chest to the
-angle of the pose found on the base's side (stance_pose.py, stance_plan.py); where none is found, the scene check
-refuses the scene before the robot moves (stance_check.py)."""
+The targets are not turned automatically: the carry to a turned place twists the grip instead. What harmony does
+for a blocked place is find a base pose that works there, route the carry through it and, near a blocked pivot,
+pull the chest to the angle of the pose found on the base's side (stance_pose.py, stance_plan.py); where none is
+found, the run ends before the robot moves as the controller's failure (stance_check.py)."""
 
 from __future__ import annotations
 

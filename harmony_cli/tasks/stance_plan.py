@@ -7,17 +7,11 @@ written stance is blocked (stance.py's warning), a base pose that works at its p
 - a chest posture: near the pivot of a blocked group, the whole-body MPC's chest cost pulls the chest to the
   angle of the pose found nearest where the base stands (poses from every start of the search: one each side of
   the pivot, typically), instead of straight ahead, so the base may stand turned where the scene leaves room. Why:
-  the pose found for a place blocked from its front stands the base turned and the chest turned back (sample 34 of
-  the randomised study: base at -53 deg, chest at +42 deg, the pads level at the goal); the chest cost, pulling to
-  0, held the chest straight and the hands 12 cm short instead. Tried first, in the study (docs/results.md):
-  - the first pose's chest alone: where the base came to the pivot's other side (sample 45) it turned the arms the
-    wrong way and twisted the grip 42 deg;
-  - the angle that squares the arms to the planned hands from the base's measured yaw: nothing then holds the
-    base's yaw, which drifted until the chest stood at its limit (sample 77, -90 deg), 4 runs lost for 3 saved;
-  - the posture in every phase, by the pivot nearest the planned hands, so that the chest unwinds as the hands
-    leave the grip's pivot rather than at the carry's start: 90 / 100, one more run lost (37), none saved.
-Cost: the search's 8 starts, before the loop: TaskReferences builds in 2.1-2.7 s with a blocked stance (1.5 s
-before with a blocked place, 0.06 s with a blocked grip, which searched none), 0.05 s without one.
+  a pose found for a place blocked from its front stands the base turned and the chest turned back; a chest cost
+  pulling to 0 holds the chest straight and the hands short of the goal instead. The posture is the nearest pose's
+  (a pose from the pivot's other side turns the arms the wrong way), fixed rather than squared to the measured
+  base (nothing would then hold the base's yaw), and only in the group's phases.
+Cost: the search's starts, once before the loop (about 2 s with a blocked stance, nothing without one).
 """
 
 from __future__ import annotations
