@@ -1,4 +1,4 @@
-"""Scenes nobody tuned the controller for (issue 14's kinds, our own versions): the paper's scenes changed, the
+"""Scenes nobody tuned the controller for (our own versions of kinds a reviewer tries): the paper's scenes changed, the
 controller not. Each runs closed loop and must succeed, or be refused before the robot moves."""
 
 from __future__ import annotations

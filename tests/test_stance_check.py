@@ -18,7 +18,7 @@ from harmony_cli.tasks.scene_check import SceneCheck
 from harmony_cli.tasks.stance_check import SEARCH, home_hands, unposed, written_stances
 
 PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml"
-# the cylinder just in front of the drop table: the place is reached from its front only (study sample 97)
+# the cylinder just in front of the drop table: the place is reached from its front only
 PLACE_BEHIND = "world.obstacles.cylinder.position=[4.59,0.10,1.0]"
 GRIP_BESIDE = "world.obstacles.cylinder.position=[3.2,1.6,1.0]"  # the base stands turned beside it (a pose found)
 

@@ -15,7 +15,7 @@ from harmony_cli.tasks.two_stage import TaskReferences
 PAPER = Path(__file__).parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml"
 BLOCKED_PLACE = ["world.obstacles.cylinder.position=[4.5,0.2,1.0]"]
 BLOCKED_GRIP = ["world.obstacles.cylinder.position=[3.2,1.6,1.0]"]
-# the cylinder on the way to the place's front, as in the study's sample 45: the base can stand either side of it
+# the cylinder on the way to the place's front: the base can stand either side of it
 EITHER_SIDE = ["world.obstacles.cylinder.position=[4.13,0.08,1.0]"]
 
 
