@@ -127,8 +127,18 @@ def _box_distance(local: np.ndarray, half: np.ndarray) -> tuple[np.ndarray, np.n
 def symbolic_distance(kind: str, half: np.ndarray, centre, yaw, point, planar: bool = False):
     """Signed distance of a CasADi point (3,) to a shape whose centre (3,) and yaw may be symbols: the same
     function as Shape.distance; `planar` measures in x, y only (a base footprint against a vertical shape)."""
-    d = point - centre
+    return _local_distance(kind, half, centre, cs.cos(yaw), cs.sin(yaw), point, planar)
+
+
+def symbolic_distances(kind: str, half: np.ndarray, centre, yaw, points: list) -> list:
+    """symbolic_distance of each of many points (3-D), the shape's turn worked out once for all of them."""
     c, s = cs.cos(yaw), cs.sin(yaw)
+    return [_local_distance(kind, half, centre, c, s, point, False) for point in points]
+
+
+def _local_distance(kind: str, half: np.ndarray, centre, c, s, point, planar: bool):
+    """symbolic_distance with the cosine and sine of the shape's yaw given."""
+    d = point - centre
     local = [c * d[0] + s * d[1], -s * d[0] + c * d[1], d[2]]
     if kind == "sphere":
         squares = local[0] ** 2 + local[1] ** 2 + (0 if planar else local[2] ** 2)

@@ -159,7 +159,8 @@ class KnotConstraints:
         h = constraint(q, ref)
         self.m, self.n_dof, self.n_rows = h.numel(), nd, (K - 1) * h.numel()
         self.function, self.n_ref = constraint, constraint.size1_in(1)
-        J = cs.jacobian(h, q)
+        split = h.numel() - problem.reverse_rows
+        J = cs.vertcat(cs.jacobian(h[:split], q), cs.jacobian(h[split:], q, {"allow_forward": False}))
         self._rows = Compiling(cs.Function("harmony_clearance", [q, ref], [h, cs.densify(J.T)]).map(K))
         self._values = Compiling(cs.Function("harmony_clearance_value", [q, ref], [h]).map(K))  # for `margins`
         self._symbols = q, ref, h

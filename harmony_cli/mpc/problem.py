@@ -40,6 +40,9 @@ class Problem:
     c: np.ndarray
     S: np.ndarray | None = None  # None: no parameters in the linear residual
     constraint: cs.Function | None = None  # (q[n_dof], ref[m]) -> h, e.g. obstacle clearance margins
+    # the last rows of h, each a soft-min over many points (the arms'): their Jacobian is taken in reverse mode,
+    # one sweep per row, where forward mode would take one per joint
+    reverse_rows: int = 0
     term_values: cs.Function = field(init=False)
     constraint_at_knots: cs.Function | None = field(init=False)
     _terms: Compiling | None = field(init=False, default=None, repr=False)

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from harmony_cli.mpc.clearance import Clearance, scene_clearances
+from harmony_cli.mpc.clearance import Clearance, scenario_clearances
 from harmony_cli.mpc.knot_params import KnotLayout
 from harmony_cli.mpc.problem import Problem
 from harmony_cli.mpc.transcription import Transcription, make_transcription
@@ -45,10 +45,11 @@ builds = 0  # structures built in this process (tests: a reused one is not built
 def structure_key(robot: Robot, scenario: Scenario) -> tuple:
     """Everything the whole-body MPC's structure is built from: the robot's kinematics (its URDF's content), joints,
     limits and home (base joints excluded: robot.base_pose), the mpc section, chest and mirrored joints, the
-    admittance section when enabled, the obstacles' and table legs' shapes and margins, the footprint."""
+    admittance section when enabled, the obstacles', table legs' and tops' shapes and margins (the arms'
+    radius among them), the footprint."""
     home = robot.home.copy()
     home[list(robot.base_joints)] = 0.0
-    clearances, _ = scene_clearances(scenario.world, scenario.planner.hand_radius, scenario.robot.base_margin)
+    clearances, _ = scenario_clearances(scenario)
     spec = scenario.robot
     return (
         hashlib.sha256(robot.urdf.read_bytes()).hexdigest(),
@@ -62,7 +63,7 @@ def structure_key(robot: Robot, scenario: Scenario) -> tuple:
         tuple(spec.chest_joints),
         tuple(map(tuple, spec.mirrored_joints)),
         scenario.admittance.model_dump_json() if scenario.admittance.enabled else None,
-        tuple((c.kind, np.asarray(c.half, dtype=float).tobytes(), c.base, c.hand) for c in clearances),
+        tuple((c.kind, np.asarray(c.half, dtype=float).tobytes(), c.base, c.hand, c.arm) for c in clearances),
         tuple(map(tuple, spec.footprint)) if clearances else (),
     )
 
@@ -70,7 +71,7 @@ def structure_key(robot: Robot, scenario: Scenario) -> tuple:
 def build_structure(robot: Robot, scenario: Scenario) -> Structure:
     admittance = scenario.admittance if scenario.admittance.enabled else None
     transcription = make_transcription(scenario.mpc, joint_limits(robot, admittance)[0].size)
-    clearances, _ = scene_clearances(scenario.world, scenario.planner.hand_radius, scenario.robot.base_margin)
+    clearances, _ = scenario_clearances(scenario)
     problem = build_problem(
         robot,
         transcription,

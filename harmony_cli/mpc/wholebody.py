@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from harmony_cli.maths.filters import LowPass
-from harmony_cli.mpc.clearance import scene_clearances
+from harmony_cli.mpc.clearance import scenario_clearances
 from harmony_cli.mpc.problem import NoPlanToHold, SolveResult
 from harmony_cli.mpc.registry import make_solver
 from harmony_cli.mpc.structures import structure_for
@@ -42,7 +42,7 @@ class WholeBodyMPC:
         structure, self.reused = structure_for(robot, scenario)  # built once per process (mpc/structures.py)
         self.transcription, self.clearances = structure.transcription, structure.clearances
         self.layout, self.problem = structure.layout, structure.problem
-        _, poses = scene_clearances(scenario.world, scenario.planner.hand_radius, scenario.robot.base_margin)
+        _, poses = scenario_clearances(scenario)
         # obstacle poses at every knot (rows of the knot parameters after the hands'); moving ones update them
         self.obstacle_poses = np.tile(poses[:, None], self.transcription.n_knots)
         self.solver = make_solver(self.problem, scenario.solver)  # this run's own: QPs, warm starts
@@ -59,7 +59,7 @@ class WholeBodyMPC:
 
     def set_obstacle_centres(self, centres: np.ndarray) -> None:
         """Predicted centres (obstacles, K, 3) of the world's obstacles (scenario order, the first clearances) at
-        the knot times of the next `step`; yaws and table legs stay as built."""
+        the knot times of the next `step`; yaws and tables stay as built."""
         for o, at_knots in enumerate(centres):
             self.obstacle_poses[self.layout.pose_centre(o)] = at_knots.T
 

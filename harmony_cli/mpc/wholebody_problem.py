@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import casadi as cs
 import numpy as np
 
-from harmony_cli.mpc.clearance import Clearance, clearance_function, clearance_margins
+from harmony_cli.mpc.clearance import Clearance, arm_rows, clearance_function, clearance_margins
 from harmony_cli.mpc.knot_params import KnotLayout
 from harmony_cli.mpc.problem import Problem, dense, linear_rows
 from harmony_cli.mpc.transcription import Transcription
@@ -168,6 +168,7 @@ def build_problem(
         c=c,
         S=S,
         constraint=constraint if constraint is not None and constraint.numel_out(0) else None,
+        reverse_rows=arm_rows(robot, clearances) if constraint is not None else 0,
     )
 
 

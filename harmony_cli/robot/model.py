@@ -15,6 +15,7 @@ import numpy as np
 from harmony_cli.cache import CACHE_DIR
 from harmony_cli.capture import captured_output
 from harmony_cli.names import closest
+from harmony_cli.robot.arm_points import ArmChain, arm_chains
 from harmony_cli.robot.gravity import gravity_torques
 from harmony_cli.robot.prepare import UrdfPlan, prepare_urdf
 from harmony_cli.robot.urdf import joint_types, wrist_sensor_joints
@@ -66,6 +67,7 @@ class Robot:
     home_gravity: np.ndarray | None = None  # per joint, the torque [N m | N] holding home against gravity (Pinocchio)
     effort: np.ndarray | None = None  # per joint, the URDF's effort limit
     actuators: str = "urdf"  # simulated motors: the URDF's efforts (urdf) or strong ones (ideal)
+    arms: tuple[ArmChain, ...] = ()  # per hand, points along its arm kept off table tops and obstacles (none: not)
 
     @property
     def overloaded(self) -> tuple[str, ...]:
@@ -151,4 +153,7 @@ def load_robot(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) 
         home_gravity=torque,
         effort=effort,
         actuators=spec.actuators,
+        arms=()
+        if spec.arm_radius is None
+        else arm_chains(prepared.path, tuple(spec.end_effectors.values()), spec.arm_radius),
     )

@@ -38,7 +38,7 @@ class MpcSpec(Strict):
     )
     clearance: Literal["hard", "soft"] = Field(
         "hard",
-        description="obstacle clearance of the base footprint and hands: constraint rows at knots k >= 1 "
+        description="obstacle clearance of the base footprint, hands and arms: constraint rows at knots k >= 1 "
         "(hard) or a squared-hinge cost weighted by weights.clearance (soft)",
     )
     weights: Weights = Weights()

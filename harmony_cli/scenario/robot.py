@@ -89,6 +89,12 @@ class RobotSpec(Strict):
         "arms the URDF's efforts cannot hold (PR2: its shoulders are balanced by springs the URDF does not model)",
     )
     base_margin: float = Field(0.03, ge=0, description="clearance the footprint keeps from table legs [m]")
+    arm_radius: float | None = Field(
+        0.05,
+        gt=0,
+        description="the arms' thickness [m]: spheres this big along each arm (its links from the shoulder to the "
+        "wrist) are kept 1 cm clear of table tops and obstacles by the whole-body MPC; null: the arms are not kept",
+    )
     trunk: list[tuple[float, float, float, float, float]] = Field(
         [],
         description="circles [x, y, radius, bottom, top] in the base frame covering the body the base carries "
