@@ -4,8 +4,8 @@ written stance is blocked (stance.py's warning), a base pose that works at its p
 - a via: the group's first plan routes the hands through the pose's position, so they come to the pivot from where
   the base can stand and the base, which follows them, arrives on that side of whatever blocks the written stance
   (only when the group's first phase works at the pivot: an approach's pose is not the one found);
-- a stance: near the pivot of a blocked group, the whole-body MPC's stance cost pulls the base towards the pose
-  found nearest where it stands (the weight blends in as the planned hands near the pivot);
+- a stance: at the knots whose planned hands are at the pivot of a blocked group, the whole-body MPC's stance cost
+  pulls the base towards the pose found nearest where it stands;
 - a chest posture: near the pivot of a blocked group, the whole-body MPC's chest cost pulls the chest to the
   angle of the pose found nearest where the base stands (poses from every start of the search: one each side of
   the pivot, typically), instead of straight ahead, so the base may stand turned where the scene leaves room. Why:
@@ -32,6 +32,9 @@ from harmony_cli.tasks.stance_pose import stance_poses
 
 NEAR = 0.2  # [m] a phase works at its group's pivot when its hands' midpoint is this near it (plan view)
 BLEND = 1.0  # [m] the chest posture blends in over this distance of the planned hands' midpoint to NEAR
+# [m] the stance blends in over this distance: it is where the base ends, at the knots whose planned hands are at the
+# pivot; on the way there the base follows the hands (a stance pulled while carrying twists the grip)
+STANCE_BLEND = 0.3
 RELIEF_SPREAD = 0.05  # [m] poses kept: those going this much further into margins than the least does, at most
 # [m] added to a relief the poses need: a pose found stands at its limits, and the whole-body MPC, which tracks the
 # hands, needs room round it to get there
@@ -48,23 +51,22 @@ class Posture:
     bases: np.ndarray
     chests: np.ndarray
 
-    def _nearest(self, hands: np.ndarray, base: np.ndarray) -> tuple[int, np.ndarray]:
+    def _nearest(self, hands: np.ndarray, base: np.ndarray, width: float) -> tuple[int, np.ndarray]:
         """The pose nearest the base's measured position (2,), and its blend at the planned `hands` (K, 2, 3): 1
-        within NEAR of the pivot (plan view), fading to 0 at NEAR + BLEND."""
+        within NEAR of the pivot (plan view), fading to 0 at NEAR + `width`."""
         near = np.linalg.norm(hands.mean(axis=1)[:, :2] - self.pivot, axis=1)
         nearest = int(np.argmin(np.linalg.norm(self.bases[:, :2] - base, axis=1)))
-        return nearest, np.clip(1.0 - (near - NEAR) / BLEND, 0.0, 1.0)
+        return nearest, np.clip(1.0 - (near - NEAR) / width, 0.0, 1.0)
 
     def chest(self, hands: np.ndarray, base: np.ndarray) -> np.ndarray:
-        """(chest joints, K): the nearest pose's chest angles, blended."""
-        nearest, blend = self._nearest(hands, base)
+        """(chest joints, K): the nearest pose's chest angles, blended over BLEND."""
+        nearest, blend = self._nearest(hands, base, BLEND)
         return self.chests[nearest][:, None] * blend[None]
 
     def stance(self, hands: np.ndarray, base: np.ndarray) -> np.ndarray:
         """(4, K): the base where the nearest pose stands it from the pivot, carried with the planned hands'
-        midpoint (x, y; its yaw the pose's), and its weight, the blend: on the way to the pivot the base keeps
-        the pose's place behind the hands."""
-        nearest, blend = self._nearest(hands, base)
+        midpoint (x, y; its yaw the pose's), and its weight, the blend over STANCE_BLEND."""
+        nearest, blend = self._nearest(hands, base, STANCE_BLEND)
         offset = self.bases[nearest][:2] - self.pivot
         xy = hands.mean(axis=1)[:, :2] + offset  # (K, 2)
         return np.vstack([xy.T, np.full(blend.size, self.bases[nearest][2]), blend])
