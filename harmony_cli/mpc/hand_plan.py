@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from enum import Enum
 
 import numpy as np
 
@@ -61,24 +62,53 @@ class Plan:
 class PlannerResult:
     plan: Plan
     success: bool
-    status: str
+    status: str  # for the steps log (Solved.status)
     iterations: int
     solve_time: float
     min_clearance: float  # predicted, over samples and obstacles [m] (inf without obstacles)
+    routed: bool = False  # the SQP was seeded on a route round the obstacles
+    shortfall: float = 0.0  # [m] the largest clearance the plan falls short of (its QP's slack)
 
 
 Ends = tuple[HandState, np.ndarray, float]  # the measured state, the goal (2, 3), the goal heading
 
 
+class Outcome(Enum):
+    """How an SQP ended: its last step below the tolerance, its iterations spent, or a QP that failed."""
+
+    CONVERGED = "converged"
+    STEPPED = "stepped"
+    FAILED = "qp failed"
+
+
+SHORT = 5e-3  # [m] a slack above this is a clearance the plan falls short of
+
+
 @dataclass(frozen=True)
 class Solved:
-    """One SQP's outcome: control points, horizon (stretched or not), status, iterations, predicted clearance."""
+    """One SQP's outcome: control points, horizon, how it ended, iterations, predicted clearance, the largest
+    clearance shortfall it took (its slack) and the base footprint's predicted margin; `routed`: seeded on a route."""
 
     C: np.ndarray
     T: float
-    success: bool
-    status: str
+    outcome: Outcome
     iterations: int
     clearance: float
-    stretch: float  # the horizon factor it needed (1: none)
+    shortfall: float = 0.0
     base_clearance: float = np.inf  # the base footprint's smallest predicted margin [m] (soft: may be < 0)
+    routed: bool = False
+
+    @property
+    def success(self) -> bool:
+        return self.outcome is not Outcome.FAILED
+
+    @property
+    def converged(self) -> bool:
+        return self.outcome is Outcome.CONVERGED
+
+    @property
+    def status(self) -> str:
+        """For the steps log: the outcome, "(route)" when routed, the shortfall when there is one."""
+        routed = " (route)" if self.routed else ""
+        short = f" (short {100 * self.shortfall:.1f} cm)" if self.shortfall > SHORT else ""
+        return f"{self.outcome.value}{routed}{short}"

@@ -34,15 +34,20 @@ from harmony_cli.maths.bezier import bernstein_basis, difference_matrix, shift_m
 from harmony_cli.mpc.codegen import Buffered
 from harmony_cli.mpc.distance_code import CompiledDistance
 from harmony_cli.mpc.footprint_code import CompiledMargins
-from harmony_cli.mpc.hand_plan import ROWS, Ends, HandState, Obstacle, Plan, PlannerResult, Solved
-from harmony_cli.mpc.phase_start import first_plan, first_step, held_plan, on_route_plan
+from harmony_cli.mpc.hand_plan import ROWS, Ends, HandState, Obstacle, Outcome, Plan, PlannerResult, Solved
+from harmony_cli.mpc.phase_start import first_plan, on_route_plan
 from harmony_cli.mpc.plan_base import PlannedBase
 from harmony_cli.mpc.plan_checks import goal_reliefs
-from harmony_cli.mpc.plan_seed import Ground, fit_matrix, straight_to, warm_outlines
+from harmony_cli.mpc.plan_horizon import least_horizon, meets
+from harmony_cli.mpc.plan_seed import Ground, fit_matrix, fix_ends, straight_to, warm_outlines
 from harmony_cli.mpc.problem import NoPlanToHold
 
 if TYPE_CHECKING:
     from harmony_cli.scenario.models import PlannerSpec
+
+SLACK_COST = 1e3  # per metre of an obstacle's clearance shortfall (the QP's linear cost on its slack)
+SLACK_RIDGE = 1e-6  # the slacks' own curvature, keeping the QP strictly convex (DAQP)
+MAX_STRETCH = 5.0  # the longest horizon as a multiple of the phase's remaining time
 
 
 class TaskPlanner:
@@ -83,14 +88,16 @@ class TaskPlanner:
         self.A = np.vstack([np.kron(eye, D1), np.kron(eye, D2)])
         self.keep = np.any(self.A[:, self.free.ravel()] != 0, axis=1)  # rows with a free variable
         n1, n2 = D1.shape[0], D2.shape[0]
-        v = np.r_[spec.max_speed, spec.max_speed, spec.max_yaw_rate]
-        a = np.r_[spec.max_acceleration, spec.max_acceleration, spec.max_yaw_acceleration]
+        v = self._speeds = np.r_[spec.max_speed, spec.max_speed, spec.max_yaw_rate]
+        a = self._accelerations = np.r_[spec.max_acceleration, spec.max_acceleration, spec.max_yaw_acceleration]
         self._rate_limits = np.r_[np.repeat(v, n1), np.repeat(a, n2)][self.keep]
         self._rate_order = np.r_[np.ones(ROWS * n1), 2 * np.ones(ROWS * n2)][self.keep]
         self.n_keep, self.n_lin = int(self.keep.sum()), self.J_lin.shape[0]
         self.n_points = 3  # hand 0, hand 1, the carried object (midpoint)
         n_rows = self.n_keep + len(obstacles) * self.n_points * s.size
-        dense = {"h": cs.Sparsity.dense(self.n_free, self.n_free), "a": cs.Sparsity.dense(n_rows, self.n_free)}
+        # the free control points, then a slack per obstacle and point (hand 0, hand 1, the carried object)
+        self.n_vars = self.n_free + len(obstacles) * self.n_points
+        dense = {"h": cs.Sparsity.dense(self.n_vars, self.n_vars), "a": cs.Sparsity.dense(n_rows, self.n_vars)}
         self.qp = Buffered(cs.conic("planner", spec.qp, dense, {"error_on_fail": False}))
         self._distances = [CompiledDistance(o.shape, self.n_points * s.size) for o in obstacles]  # hands, object
         self._base_nearest = None if base is None else CompiledMargins(base, self._s_start.size)
@@ -131,10 +138,20 @@ class TaskPlanner:
         self._height_index = np.flatnonzero(free)[self._heights]  # and in C.ravel()
         self._reliefs = np.zeros(len(self.obstacles))  # per obstacle, its clearance lowered to the goal's
         self._relief_key: tuple | None = None
-        self._H, rows = args["h"].reshape(self.n_free, -1).T, args["a"].reshape(self.n_free, -1)
-        rows.T[: self.n_keep] = self.A[self.keep][:, free]
-        self._qp_rows = rows.reshape(ROWS, -1, rows.shape[1])
+        H, qp_columns = args["h"].reshape(self.n_vars, self.n_vars), args["a"].reshape(self.n_vars, -1)
+        self._H = H[: self.n_free, : self.n_free]
+        qp_columns[: self.n_free].T[: self.n_keep] = self.A[self.keep][:, free]
+        self._qp_rows = qp_columns[: self.n_free].reshape(ROWS, -1, qp_columns.shape[1])
+        # a slack lifts each clearance row of its obstacle and point: every QP is feasible, a shortfall costs
+        # SLACK_COST per metre (an exact penalty: none is taken where the rows can be met), and one point's start
+        # inside a margin does not excuse another's
+        S = self.s.size
+        for k in range(len(self.obstacles) * self.n_points):
+            qp_columns[self.n_free + k, self.n_keep + k * S : self.n_keep + (k + 1) * S] = 1.0
+            H[self.n_free + k, self.n_free + k] = SLACK_RIDGE
+        args["g"][self.n_free :] = SLACK_COST
         args["uba"][self.n_keep :], args["lbx"][:], args["ubx"][:] = np.inf, -np.inf, np.inf
+        args["lbx"][self.n_free :] = 0.0
 
     def goal_heading(self, goal: np.ndarray, heading_now: float) -> float:
         d = goal[1] - goal[0]
@@ -158,76 +175,89 @@ class TaskPlanner:
         over a flat-topped obstacle needs its bottom above the top, not a sphere's worth above it."""
         carried = None if carrying_radius is None else (carrying_radius, carrying_drop)
         start_time = time.perf_counter()
-        T = max(phase_end - t, self.spec.min_horizon)
         heading_goal = self.goal_heading(goal, state.heading)
+        ends = (state, goal, heading_goal)
         previous = self.C if phase == self.phase else None
         fresh = previous is None
+        T = self.horizon(ends, phase_end - t) if fresh else max(phase_end, self.t_plan + self.T_plan) - t
+        T = max(T, self.spec.min_horizon)
         if previous is None:  # straight line to the goal, then full SQP
-            C = straight_to((state, goal, heading_goal), self.M)
+            C = straight_to(ends, self.M)
             iterations = self.spec.phase_iterations
         else:  # the previous plan from now on (de Casteljau), re-timed to the new horizon
             tau = min(max((t - self.t_plan) / self.T_plan, 0.0), 0.99)  # np.clip costs ~4 us on a float
             C = previous @ shift_matrix(self.M, tau) if tau > 0 else previous.copy()
             iterations = self.spec.iterations
         width = float(np.linalg.norm(goal[1] - goal[0]))
-        key = (phase, carried is None, goal.tobytes())  # the goal's reliefs: once a phase (and once held)
+        key = (phase, carried is None, goal.tobytes())  # the goal's reliefs: once a phase
         if key != self._relief_key:
             self._reliefs, self._relief_key = goal_reliefs(self.obstacles, goal, t + T, carried), key
-        ends = (state, goal, heading_goal)
         via = self.via if fresh else None  # TaskReferences sets it at a phase change: the phase's first plan only
         route_now, self.via, self._route_next = self._route_next, None, False
         # the way to a chosen stance is known (the straight line leads to the blocked side), or the last step asked
-        # for a route: its route's SQP alone (one SQP a step), the plan's own step if it fails
-        solved = on_route_plan(self, None, t, T, ends, carried, width, via) if via is not None or route_now else None
+        # for a route: its route's SQP alone (one SQP a step), the plan's own step if there is none or it fails
+        solved = on_route_plan(self, t, T, ends, carried, width, via) if via is not None or route_now else None
         if solved is None or not solved.success:
-            solved = first_plan(self, C, t, T, ends, iterations, carried, width, fresh, route_now)
-        if held := solved is None:  # the line blocked from a clear start: the last plan held, its route next step
-            self._route_next, solved = True, held_plan(self)
-        C, success, status = solved.C, solved.success, solved.status
-        if success and not np.isfinite(C).all():  # NaN / inf never becomes the plan: the last one is held
+            solved = first_plan(self, C, t, T, ends, iterations, carried, width, fresh and not route_now)
+        success, status = solved.success, solved.status
+        if success and not np.isfinite(solved.C).all():  # NaN / inf never becomes the plan: the last one is held
             success, status = False, "non-finite plan"
-        if success and not held:
-            self.C, self.phase, self.t_plan, self.T_plan = C, phase, t, solved.T
+        if success:
+            self.C, self.phase, self.t_plan, self.T_plan = solved.C, phase, t, solved.T
         if self.C is None:
             raise NoPlanToHold(f"first planner solve failed ({status}); no plan to hold")
         plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
+        elapsed = time.perf_counter() - start_time
         return PlannerResult(
-            plan, success, status, solved.iterations, time.perf_counter() - start_time, solved.clearance
+            plan, success, status, solved.iterations, elapsed, solved.clearance, solved.routed, solved.shortfall
         )
 
-    def _solve(self, C, t: float, T: float, ends: Ends, iterations: int, carried, width, blocked=None, skip=0):
-        """Gauss-Newton SQP from `C` (changed in place) towards `ends` = (state, goal, goal heading); None when its
-        first step says the line is `blocked` (first_step; `skip` too)."""
-        success, it = True, 0
-        first = first_step(self, C, t, T, ends, carried, width, blocked, skip)
-        if first is None:
-            return None
-        (step, clearance, base_clearance, status), stretch, relaxed = first
-        T *= stretch
-        suffix = f" (horizon stretched x{stretch:g})" if stretch > 1 else ""
-        suffix += " (clearance relaxed)" if relaxed else ""
-        for it in range(1, iterations + 1):
-            if it > 1:
-                step, clearance, base_clearance, status = self._sqp_step(C, t, T, carried, width, relaxed)
+    def horizon(self, ends: Ends, remaining: float) -> float:
+        """A phase's first plan's horizon: the phase's remaining time (at least min_horizon), or the least that
+        meets the rate bounds from the measured state when that is longer (plan_horizon.py), at most MAX_STRETCH
+        times it. Later plans keep the first's end (or the phase's, if later): the last plan from now on meets the
+        bounds over it."""
+        T = max(remaining, self.spec.min_horizon)
+        state, goal, heading = ends
+        curves = (
+            np.r_[state.positions.ravel(), state.heading],
+            np.r_[state.velocities.ravel(), state.heading_rate],
+            np.r_[goal.ravel(), heading],
+            self._speeds,
+            self._accelerations,
+            self.M,
+        )
+        if meets(T, *curves):
+            return T
+        return min(max(T, least_horizon(*curves)), MAX_STRETCH * T)
+
+    def _solve(self, C, t: float, T: float, ends: Ends, iterations: int, carried, width) -> Solved:
+        """Gauss-Newton SQP from `C` (changed in place) towards `ends` = (state, goal, goal heading) over [t, t + T]:
+        `iterations` QPs at most, fewer when a step is below the tolerance."""
+        fix_ends(C, *ends, T)
+        outcome, it, shortfall, clearance, base_clearance = Outcome.STEPPED, 0, 0.0, np.inf, np.inf
+        while it < iterations:
+            it += 1
+            step, clearance, base_clearance, shortfall = self._sqp_step(C, t, T, carried, width)
             if step is None:
-                success = False
+                outcome = Outcome.FAILED
                 break
             C[self.free] += step
             if np.abs(step).max() < self.spec.tol:
-                status = "converged"
+                outcome = Outcome.CONVERGED
                 break
-        return Solved(C, T, success, status + suffix, it, clearance, stretch, base_clearance)
+        return Solved(C, T, outcome, it, clearance, shortfall, base_clearance)
 
-    def _sqp_step(self, C: np.ndarray, t: float, T: float, carried, width: float, relaxed: bool = False):
-        """One Gauss-Newton QP over the free control points of the plan over [t, t + T]: (step or None, predicted
-        clearance, the base footprint's predicted margin, status); `relaxed`: a clearance row violated now asks only
-        not to get worse."""
+    def _sqp_step(self, C: np.ndarray, t: float, T: float, carried, width: float):
+        """One Gauss-Newton QP over the free control points of the plan over [t, t + T] and the obstacles' slacks:
+        (step or None when the QP fails, predicted clearance, the base footprint's predicted margin, the largest
+        slack taken [m])."""
         x, args = C.ravel(), self.qp.args
         curves = C @ self.B.T  # (7, S)
         self._pose_residuals(curves, width)
         self._r[: self.n_lin] = self.J_lin @ x
         np.add(self._J.T @ self._J, self._ridge, out=self._H)
-        args["g"][:] = self._J.T @ self._r
+        args["g"][: self.n_free] = self._J.T @ self._r
         base_clearance = np.inf
         if self.base is not None:  # its active rows only (usually none): the same sums as zero rows in J, less work
             with_start = C @ self._B_start.T  # its fixed start (s = 0), then the samples
@@ -236,19 +266,19 @@ class TaskPlanner:
             )
             if len(r):
                 self._H += J.T @ J
-                args["g"][:] += J.T @ r
+                args["g"][: self.n_free] += J.T @ r
         limit = self._rate_limits * T**self._rate_order  # D^k P are s-derivatives: time derivative = D^k P / T^k
         Ax = (self.A @ x)[self.keep]
         args["lba"][: self.n_keep], args["uba"][: self.n_keep] = -limit - Ax, limit - Ax
         clearance = self._clearance_rows(curves, t, T, carried)
-        args["ubx"][self._heights] = self.ceiling - x[self._height_index]  # curves in their control points' hull
-        if relaxed:
-            np.minimum(args["lba"][self.n_keep :], 0.0, out=args["lba"][self.n_keep :])
+        args["ubx"][: self.n_free][self._heights] = (
+            self.ceiling - x[self._height_index]
+        )  # curves in their control points' hull
         out = self.qp()
-        stats = self.qp.stats()
-        if stats["success"]:
-            return out["x"].copy(), clearance, base_clearance, "rti_step"
-        return None, clearance, base_clearance, f"qp_failed: {stats.get('return_status', '?')}"
+        if not self.qp.stats()["success"]:
+            return None, clearance, base_clearance, np.inf
+        shortfall = float(out["x"][self.n_free :].max(initial=0.0))
+        return out["x"][: self.n_free].copy(), clearance, base_clearance, shortfall
 
     def _pose_residuals(self, curves: np.ndarray, width: float) -> None:
         """Residuals at the samples and their Jacobians (free columns), into the rows after the linear ones: facing
