@@ -246,8 +246,8 @@ def test_a_phase_s_first_plan_that_wants_a_route_gets_it_on_the_next_step():
     args = (HandState(START, np.zeros((2, 3)), 0.0), GOAL, PHASE_END, 0, None)  # free hands: succeeds, not clean
     first = planner.step(0.0, *args)
     assert not first.routed and planner.route_pending  # one SQP on this step
-    solves, solve = [], planner._solve
-    planner._solve = lambda *a, **k: solves.append(a) or solve(*a, **k)  # type: ignore[method-assign]
+    solves, solve = [], planner.sqp.solve
+    planner.sqp.solve = lambda *a, **k: solves.append(a) or solve(*a, **k)  # type: ignore[method-assign]
     second = planner.step(0.02, *args)
     assert second.routed and not planner.route_pending
     assert len(solves) == 1  # the route's SQP alone on that step, not the plan's own step as well

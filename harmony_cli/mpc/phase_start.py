@@ -14,35 +14,36 @@ from harmony_cli.mpc.plan_checks import is_clean, rank
 from harmony_cli.mpc.plan_seed import fix_ends, on_route, straight_to
 
 if TYPE_CHECKING:
-    from harmony_cli.mpc.hand_plan import Ends
-    from harmony_cli.mpc.planner import TaskPlanner
+    from harmony_cli.mpc.hand_plan import Ends, Solved
+    from harmony_cli.mpc.hand_sqp import HandSQP
+    from harmony_cli.mpc.plan_seed import Ground
 
 
-def on_route_plan(planner: TaskPlanner, t: float, T: float, ends: Ends, carried, width: float, via=None):
+def on_route_plan(sqp: HandSQP, ground: Ground | None, t: float, T: float, ends: Ends, carried, width, via=None):
     """The SQP from the straight line moved onto a planar route (plan_seed.py) through `via` (2,) if given; None
     when there is no way round, or nothing in the way."""
-    C = straight_to(ends, planner.M)
+    C = straight_to(ends, sqp.M)
     fix_ends(C, *ends, T)
-    sampling = (planner.B, planner.s, planner.free, planner.fit)
-    moved = on_route(C, ends, planner.obstacles, carried, planner.ground, via, sampling)
+    moved = on_route(C, ends, sqp.obstacles, carried, ground, via, (sqp.B, sqp.s, sqp.free, sqp.fit))
     if moved is None:
         return None
-    return replace(planner._solve(moved, t, T, ends, planner.spec.phase_iterations, carried, width), routed=True)
+    return replace(sqp.solve(moved, t, T, ends, sqp.spec.phase_iterations, carried, width), routed=True)
 
 
-def first_plan(planner: TaskPlanner, C, t: float, T: float, ends: Ends, iterations: int, carried, width, fresh):
-    """The SQP from `C` (the straight line on a phase's first step, `fresh`; else the last plan shifted). A fresh
-    plan that is not clean asks for a route on the next step; when its QP failed, the route is tried at once and
-    taken if it ranks higher. (Not after any plan that is not clean: a line the SQP bends round a moving obstacle
-    would be taken off it.)"""
-    solved = planner._solve(C, t, T, ends, iterations, carried, width)
-    obstacles = planner.obstacles
-    if not fresh or not obstacles or is_clean(solved, planner.B, obstacles):
-        return solved
+def first_plan(
+    sqp: HandSQP, ground: Ground | None, C, t: float, T: float, ends: Ends, how: tuple, fresh: bool
+) -> tuple[Solved, bool]:
+    """The SQP from `C` (the straight line on a phase's first step, `fresh`; else the last plan shifted) with
+    `how` = (iterations, carried, width), and whether the next step should try a route: a fresh plan that is not
+    clean asks for one; when its QP failed, the route is tried at once and taken if it ranks higher. (Not after
+    any plan that is not clean: a line the SQP bends round a moving obstacle would be taken off it.)"""
+    iterations, carried, width = how
+    solved = sqp.solve(C, t, T, ends, iterations, carried, width)
+    if not fresh or not sqp.obstacles or is_clean(solved, sqp.B, sqp.obstacles):
+        return solved, False
     if solved.success:
-        planner._route_next = True
-        return solved
-    routed = on_route_plan(planner, t, T, ends, carried, width)
-    if routed is None:
-        return solved
-    return routed if rank(routed, planner.B, obstacles) > rank(solved, planner.B, obstacles) else solved
+        return solved, True
+    routed = on_route_plan(sqp, ground, t, T, ends, carried, width)
+    if routed is None or rank(routed, sqp.B, sqp.obstacles) <= rank(solved, sqp.B, sqp.obstacles):
+        return solved, False
+    return routed, False
