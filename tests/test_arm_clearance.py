@@ -93,7 +93,8 @@ def test_an_arm_row_is_the_arm_links_distance_to_a_table_top_less_the_margin_to_
             continue
         tried += 1
         distance = min(closest)
-        row = float(np.min(rows(q, np.r_[np.zeros(KnotLayout(2, 1).hands_end), centre, yaw])))
+        pose = np.r_[centre, yaw, 0.0][:, None]  # its relief 0
+        row = float(np.min(rows(q, KnotLayout(2, 1).stack(np.zeros((KnotLayout(2, 1).hands_end, 1)), pose))))
         if distance >= 0.0:
             assert row <= distance + 1e-3  # a row that holds keeps every link off the top
             assert row >= distance - radius - MARGIN - SOFTMIN * np.log(n_points) - 1e-3
@@ -116,7 +117,8 @@ def test_soft_clearance_costs_the_squared_hinge_of_the_hard_rows_arm_rows_includ
     ]
     assert built[0].reverse_rows == 2  # one row per arm against the table's top, after the footprint's and hands'
     layout = KnotLayout(2, 5)  # four legs, the top
-    p = np.vstack([np.zeros((layout.hands_end, tr.n_knots)), np.tile(poses[:, None], tr.n_knots)])
+    p = layout.stack(np.zeros((layout.hands_end, tr.n_knots)), np.tile(poses[:, None], tr.n_knots))
+    p = p.reshape(layout.rows, tr.n_knots, order="F")
     x = np.tile(eva.home, tr.n_vars // eva.n_dof) + 0.3 * rng.standard_normal(tr.n_vars)
     h = np.array(built[0].constraint_at_knots(built[0].knot_positions(x), p))
     assert h[-2:].min() < 0  # some arm sphere inside the top's margin

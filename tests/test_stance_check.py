@@ -18,8 +18,8 @@ from harmony_cli.tasks.scene_check import SceneCheck
 from harmony_cli.tasks.stance_check import SEARCH, home_hands, unposed, written_stances
 
 PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml"
-# the cylinder just in front of the drop table: the place is reached from its front only
-PLACE_BEHIND = "world.obstacles.cylinder.position=[4.59,0.10,1.0]"
+# the cylinder just in front of the drop table: no room for the base, even inside the cylinder's margin
+PLACE_BEHIND = "world.obstacles.cylinder.position=[4.85,0.2,1.0]"
 GRIP_BESIDE = "world.obstacles.cylinder.position=[3.2,1.6,1.0]"  # the base stands turned beside it (a pose found)
 
 
@@ -30,8 +30,9 @@ def test_harmony_run_ends_a_place_no_base_pose_reaches_as_no_stance_in_one_line_
     assert result.exit_code == 1, result.output
     assert len(result.output.strip().splitlines()) == 1
     assert (
-        f"no base pose found, clear of the scene (the trunk out from under table tops), from which the hands "
-        f"reach phases carry to retreat at the box's goal ({len(SEARCH)} starts searched" in result.output
+        "no base pose found, clear of the scene (obstacles' margins down to 0.05 m; the trunk out from under table "
+        f"tops), from which the hands reach phases carry to retreat at the box's goal ({len(SEARCH)} starts searched"
+        in result.output
     )
     assert "inside obstacle cylinder's margin" in result.output
     summary = json.loads((tmp_path / "summary.json").read_text())
@@ -60,7 +61,7 @@ def test_the_search_for_a_blocked_place_leaves_out_an_obstacle_that_moves(
     monkeypatch,
 ):
     both = (
-        "world.obstacles=[{name: cylinder, shape: cylinder, position: [4.59, 0.10, 1.0], size: [1.2, 1.2, 2.0], "
+        "world.obstacles=[{name: cylinder, shape: cylinder, position: [4.85, 0.2, 1.0], size: [1.2, 1.2, 2.0], "
         "margin: 0.3}, {name: cart, shape: cylinder, position: [5.2, -0.9, 0.5], size: [0.4, 0.4, 1.0], margin: 0.1, "
         "motion: {velocity: [0.0, 0.5, 0.0], start: 0.0, stop: 4.0}}]"
     )

@@ -1,5 +1,6 @@
-"""What a blocked stance changes (tasks/stance_plan.py): the chest posture, which pose it takes and where, checked
-against Pinocchio's kinematics and plain geometry; and which phases get one."""
+"""What a blocked stance changes (tasks/stance_plan.py): the chest posture and the base's stance, which pose they
+take and where, checked against Pinocchio's kinematics and plain geometry; which phases get one; and the margins
+the whole-body MPC lowers where no pose keeps them."""
 
 from pathlib import Path
 
@@ -7,8 +8,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from harmony_cli.mpc.clearance import FLOOR
 from harmony_cli.scenario import load_scenario, robot_of
-from harmony_cli.tasks.stance_plan import BLEND, NEAR, ChestPosture, pivot_targets
+from harmony_cli.tasks.stance_plan import BLEND, NEAR, RELIEF_SPARE, STANCE_BLEND, Posture, pivot_targets
 from harmony_cli.tasks.stance_pose import POSITION_TOL, stance_poses
 from harmony_cli.tasks.two_stage import TaskReferences
 
@@ -30,14 +32,27 @@ def _hands(middle):
     return np.array([[np.r_[middle, 1.3] + [0.0, 0.15, 0.0], np.r_[middle, 1.3] - [0.0, 0.15, 0.0]]])
 
 
+def _posture() -> Posture:
+    bases, chests = np.array([[-0.6, 0.4, -0.5], [-0.6, -0.4, 0.5]]), np.array([[0.8], [-0.7]])
+    return Posture(frozenset({5}), np.zeros(2), bases, chests)
+
+
 def test_the_posture_takes_the_chest_of_the_pose_nearest_the_base_in_full_near_the_pivot_and_none_far_from_it():
-    bases, chests = np.array([[-0.6, 0.4], [-0.6, -0.4]]), np.array([[0.8], [-0.7]])
-    posture = ChestPosture(frozenset({5}), np.zeros(2), bases, chests)
+    posture = _posture()
     north, south = np.array([-1.0, 1.0]), np.array([-1.0, -1.0])
-    assert posture.at(_hands([0.1, 0.0]), north)[0, 0] == 0.8
-    assert posture.at(_hands([0.1, 0.0]), south)[0, 0] == -0.7
-    assert posture.at(_hands([NEAR + BLEND / 2, 0.0]), north)[0, 0] == pytest.approx(0.4)
-    assert posture.at(_hands([NEAR + BLEND, 0.0]), north)[0, 0] == posture.at(_hands([3.0, 0.0]), north)[0, 0] == 0
+    assert posture.chest(_hands([0.1, 0.0]), north)[0, 0] == 0.8
+    assert posture.chest(_hands([0.1, 0.0]), south)[0, 0] == -0.7
+    assert posture.chest(_hands([NEAR + BLEND / 2, 0.0]), north)[0, 0] == pytest.approx(0.4)
+    far = posture.chest(_hands([3.0, 0.0]), north)[0, 0]
+    assert posture.chest(_hands([NEAR + BLEND, 0.0]), north)[0, 0] == far == 0
+
+
+def test_the_stance_puts_the_base_where_the_nearest_pose_stands_from_the_pivot_at_the_knots_near_it_alone():
+    posture = _posture()
+    stance = posture.stance(_hands([0.3, 0.1]), np.array([-1.0, -1.0]))  # the southern pose is nearest
+    blend = 1.0 - (np.hypot(0.3, 0.1) - NEAR) / STANCE_BLEND
+    np.testing.assert_allclose(stance[:, 0], [0.3 - 0.6, 0.1 - 0.4, 0.5, blend])
+    assert posture.stance(_hands([NEAR + STANCE_BLEND, 0.0]), np.zeros(2))[3, 0] == 0.0  # on the way: none
 
 
 def test_a_place_reachable_from_either_side_gets_a_pose_each_side_with_the_chest_turned_back_to_the_hands():
@@ -46,15 +61,15 @@ def test_a_place_reachable_from_either_side_gets_a_pose_each_side_with_the_chest
     targets, headings, _ = pivot_targets(scenario, robot, stance, references.planner.heading_offset)
     poses = stance_poses(scenario, robot, targets, headings)
     chest = robot.index(scenario.robot.chest_joints[0])
-    sides = [np.sign(base[1] - stance.pivot_position[1]) for base, _ in poses]
+    sides = [np.sign(pose.base[1] - stance.pivot_position[1]) for pose in poses]
     assert sorted(sides) == [-1, 1]
     model = pin.buildModelFromUrdf(str(robot.urdf))
     data = model.createData()
     index = [model.joints[model.getJointId(j)].idx_q for j in robot.joint_names]
-    for (base, joints), side in zip(poses, sides):
-        assert np.sign(joints[0, chest]) == side  # north of the place the base faces south-east, the chest turns left
-        assert np.sign(base[2]) == -side
-        for q, pair in zip(joints, targets):
+    for pose, side in zip(poses, sides):
+        assert np.sign(pose.joints[0, chest]) == side  # north of the place the base faces south-east, chest left
+        assert np.sign(pose.base[2]) == -side
+        for q, pair in zip(pose.joints, targets):
             q_pin = np.zeros(model.nq)
             q_pin[index] = q
             pin.framesForwardKinematics(model, data, q_pin)
@@ -71,3 +86,15 @@ def test_only_the_blocked_groups_phases_get_a_chest_posture():
     assert [sorted(names[i] for i in p.phases) for p in references.stance_plan.postures] == [sorted(names[:5])]
     assert references.vias == {}  # its way in is an approach: no route point (test_stance_pose.py)
     assert references.stance_plan.chest(6, _hands([6.1, 0.0]), np.zeros(2)) is None  # the place: not blocked here
+
+
+def test_a_place_reached_only_inside_the_cylinder_s_margin_lowers_that_margin_in_the_place_s_phases_alone():
+    scenario, _, references = _references("world.obstacles.cylinder.position=[5.14,0.64,1.0]")
+    names = [p.name for p in scenario.task.phases]
+    plan = references.stance_plan
+    assert sorted(names[i] for i in plan.reliefs) == sorted(names[5:])
+    relief = plan.reliefs[names.index("lower")]
+    give = scenario.world.obstacles[0].margin - FLOOR
+    assert relief.shape == (1,) and RELIEF_SPARE < relief[0] <= give
+    scenario, _, references = _references(*BLOCKED_PLACE)  # a pose that keeps the margin: nothing lowered
+    assert references.stance_plan.reliefs == {}

@@ -8,6 +8,7 @@ import pinocchio as pin
 import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
+from harmony_cli.mpc.clearance import FLOOR
 from harmony_cli.scenario import load_scenario, robot_of
 from harmony_cli.sim.world import World
 from harmony_cli.tasks.stance_pose import POSITION_TOL, stance_pose
@@ -17,8 +18,10 @@ PAPER = Path(__file__).parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml
 # the cylinder just west of the drop table: the base, behind the hands as written for the place, would be in it
 BLOCKED = ["world.obstacles.cylinder.position=[4.5,0.2,1.0]"]
 # 0.25 m nearer the table: the base fits between the cylinder's margin and the table only under the table's top,
-# with the robot's waist inside it
+# with the robot's waist inside it, or inside the cylinder's margin
 UNDER_TOP = ["world.obstacles.cylinder.position=[4.75,0.2,1.0]"]
+# 0.1 m nearer still: not even inside the margin (FLOOR from the cylinder) with the trunk out from under the top
+NO_ROOM = ["world.obstacles.cylinder.position=[4.85,0.2,1.0]"]
 PLACE = ("carry", "approach_drop", "lower", "release", "open")
 
 
@@ -33,7 +36,9 @@ def test_a_blocked_place_gets_a_pose_whose_hands_pinocchio_puts_on_the_targets_a
     scenario = load_scenario(PAPER, BLOCKED)
     robot = robot_of(scenario, PAPER.parent)
     targets, headings = _place(scenario, robot)
-    base, joints = stance_pose(scenario, robot, targets, headings)
+    pose = stance_pose(scenario, robot, targets, headings)
+    base, joints = pose.base, pose.joints
+    assert not pose.relieved
     model = pin.buildModelFromUrdf(str(robot.urdf))
     data = model.createData()
     for q, pair in zip(joints, targets):
@@ -68,22 +73,36 @@ def _trunk_gap(scenario, base) -> float:
     return min(gaps)
 
 
-def test_a_place_reached_only_with_the_waist_under_the_table_s_top_gets_no_pose_no_route_point_and_a_warning():
+def test_a_place_reached_only_inside_the_cylinder_s_margin_gets_a_pose_that_goes_in_and_keeps_the_trunk_out():
     scenario = load_scenario(PAPER, UNDER_TOP)
     robot = robot_of(scenario, PAPER.parent)
     targets, headings = _place(scenario, robot)
-    assert stance_pose(scenario, robot, targets, headings) is None
+    pose = stance_pose(scenario, robot, targets, headings)
+    cylinder = scenario.world.obstacles[0]
+    assert pose.relieved and pose.reliefs[0] <= cylinder.margin - FLOOR + 1e-6
+    assert _trunk_gap(scenario, pose.base) >= -1e-6
+    c, s = np.cos(pose.base[2]), np.sin(pose.base[2])
+    centres = [pose.base[:2] + [c * x - s * y, s * x + c * y] for x, y, _ in scenario.robot.footprint]
+    radii = [r for _, _, r in scenario.robot.footprint]
+    gaps = [np.linalg.norm(p - cylinder.position[:2]) - r - cylinder.size[0] / 2 for p, r in zip(centres, radii)]
+    assert min(gaps) >= cylinder.margin - pose.reliefs[0] - 1e-4  # the soft-min is below the circles' min
+    # without the trunk the pose found stands the base under the table, its waist inside the top, and keeps the margin
+    bare = load_scenario(PAPER, [*UNDER_TOP, "robot.trunk=[]"])
+    pose = stance_pose(bare, robot, targets, headings)
+    assert _trunk_gap(scenario, pose.base) < -0.1 and not pose.relieved
+
+
+def test_a_place_with_no_room_even_inside_the_margin_gets_no_pose_no_route_point_and_a_warning():
+    scenario = load_scenario(PAPER, NO_ROOM)
+    robot = robot_of(scenario, PAPER.parent)
+    assert stance_pose(scenario, robot, *_place(scenario, robot)) is None
     references = TaskReferences(robot, scenario)
     assert references.vias == {}
     assert [w for w in references.warnings if w.startswith("stance: no base pose found")] == [
-        "stance: no base pose found, clear of the scene (the trunk out from under table tops), from which the hands "
-        "reach phases carry to retreat at the box's goal (8 starts searched; not a proof that none exists): the "
-        "robot may not get there"
+        "stance: no base pose found, clear of the scene (obstacles' margins down to 0.05 m; the trunk out from under "
+        "table tops), from which the hands reach phases carry to retreat at the box's goal (8 starts searched; not a "
+        "proof that none exists): the robot may not get there"
     ]
-    # without the trunk the pose found stands the base under the table, its waist inside the top
-    bare = load_scenario(PAPER, [*UNDER_TOP, "robot.trunk=[]"])
-    base, _ = stance_pose(bare, robot, targets, headings)
-    assert _trunk_gap(scenario, base) < -0.1
 
 
 def _trunk_contact_in_pybullet(scenario, robot, joints) -> float:
@@ -105,10 +124,10 @@ def test_pybullet_sees_the_waist_inside_the_table_top_at_the_trunkless_pose_and_
     robot = robot_of(load_scenario(PAPER), PAPER.parent)
     bare = load_scenario(PAPER, [*UNDER_TOP, "robot.trunk=[]"])
     targets, headings = _place(bare, robot)
-    _, joints = stance_pose(bare, robot, targets, headings)
+    joints = stance_pose(bare, robot, targets, headings).joints
     assert min(_trunk_contact_in_pybullet(bare, robot, q) for q in joints) < -0.05
     blocked = load_scenario(PAPER, BLOCKED)
-    _, joints = stance_pose(blocked, robot, *_place(blocked, robot))
+    joints = stance_pose(blocked, robot, *_place(blocked, robot)).joints
     assert min(_trunk_contact_in_pybullet(blocked, robot, q) for q in joints) > 0.0
 
 
@@ -138,8 +157,7 @@ def test_the_pose_found_faces_the_pads_across_the_targets_whatever_the_robot_s_s
         targets, _ = _place(scenario, robot)
         d = targets[:, 1] - targets[:, 0]
         headings = np.arctan2(d[:, 1], d[:, 0]) + home_hands(robot)[1]  # the planner's: 0 at home as it starts
-        _, joints = stance_pose(scenario, robot, targets, headings)
-        for q, pair in zip(joints, targets):
+        for q, pair in zip(stance_pose(scenario, robot, targets, headings).joints, targets):
             across = (pair[1] - pair[0]) / np.linalg.norm(pair[1] - pair[0])
             for h, (_, rotation) in enumerate(robot.hand_poses_numeric(q)):
                 normal = rotation[:, 2]  # the pad's normal points at the other pad

@@ -46,16 +46,20 @@ def _hands(eva, scenario, transcription, t=9.0):
     return hand_rows(*ref.poses(t + transcription.knot_times))
 
 
-def _reference(eva, scenario, transcription, t=9.0, chest=0.0):
-    """The problem's parameters p: the hands' rows, then the chest joints' reference rows (`chest` [rad])."""
+def _reference(eva, scenario, transcription, t=9.0, chest=0.0, stance=(0.0, 0.0, 0.0, 0.0)):
+    """The problem's parameters p: the hands' rows, the chest joints' reference rows (`chest` [rad]), then the
+    base's stance (x, y, yaw, weight)."""
     hands = _hands(eva, scenario, transcription, t)
-    return np.vstack([hands, np.full((len(scenario.robot.chest_joints), hands.shape[1]), chest)]).ravel(order="F")
+    K = hands.shape[1]
+    chest_rows = np.full((len(scenario.robot.chest_joints), K), chest)
+    return np.vstack([hands, chest_rows, np.tile(np.asarray(stance)[:, None], K)]).ravel(order="F")
 
 
 @pytest.mark.parametrize("transcription", ["bezier", "traditional"])
 def test_structured_gradient_matches_finite_differences_of_the_named_cost_terms(eva, rng, transcription):
     scenario, tr, problem = _problem(eva, f"mpc.transcription={transcription}", "mpc.knots=6")
-    p = _reference(eva, scenario, tr, chest=0.3)  # the chest cost pulled off 0 (a blocked stance's square chest)
+    # the chest cost pulled off 0 and the base towards a stance (a blocked stance's posture)
+    p = _reference(eva, scenario, tr, chest=0.3, stance=(0.2, -0.1, 2.5, 0.8))
     x = np.tile(eva.home, tr.n_vars // eva.n_dof) + 0.05 * rng.standard_normal(tr.n_vars)
     _, g = KnotDerivatives(problem)(x, p)
     f = lambda z: sum(problem.evaluate_terms(z, p).values())
@@ -79,7 +83,8 @@ def test_gauss_newton_hessian_equals_exact_hessian_where_residuals_vanish(eva, r
     positions = np.array([[p.ravel() for p, _ in pose] for pose in poses])
     rotations = np.array([[r for _, r in pose] for pose in poses])
     chest = q_knots[[eva.index(j) for j in scenario.robot.chest_joints]]
-    p = np.vstack([hand_rows(positions, rotations), chest]).ravel(order="F")  # the reference is the trajectory itself
+    no_stance = np.zeros((4, tr.n_knots))
+    p = np.vstack([hand_rows(positions, rotations), chest, no_stance]).ravel(order="F")  # the trajectory itself
     H_gn, _ = KnotDerivatives(problem)(x, p)
     f = sum(problem.terms.values())
     H_exact = np.array(cs.Function("h", [problem.x, problem.p], [cs.hessian(f, problem.x)[0]])(x, p))

@@ -58,9 +58,12 @@ def run_loop(
             targets = references(t, obs, mpc.knot_times)
             if predict is not None:
                 mpc.set_obstacle_centres(predict(t + mpc.knot_times))
+            mpc.set_reliefs(targets.reliefs)
             solve = time.perf_counter()
             hands = hand_rows(targets.positions, targets.rotations)
-            command, result = mpc.step(obs.q, hands, targets.force_ref, obs.pad_forces, targets.chest_ref)
+            command, result = mpc.step(
+                obs.q, hands, targets.force_ref, obs.pad_forces, targets.chest_ref, targets.stance
+            )
             end = time.perf_counter()
             truth = sim.truth()
             watched = watch(t, obs, truth) if watch else {}

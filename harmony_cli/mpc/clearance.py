@@ -19,6 +19,9 @@ if TYPE_CHECKING:
     from harmony_cli.scenario.world import WorldSpec
 
 SOFTMIN = 0.01  # [m] smoothing of a min over circles or points; the soft-min is below the min by <= this * ln n
+# [m] the least clearance a relieved margin keeps: the footprint's circles and the hands' spheres only approximate
+# the bodies, and the knots sample the motion between them
+FLOOR = 0.05
 
 
 @dataclass(frozen=True)
@@ -26,13 +29,16 @@ class Clearance:
     """An obstacle as the whole-body MPC sees it: its centre (3) and yaw are parameters at every knot (so it
     may move); the base footprint circles keep `base` [m] from it in x, y (None: the base passes under it, a
     table's top), the hands `hand` [m] in 3-D (None: the hands may touch it, e.g. a table) and the spheres along
-    each arm `arm` [m], their radius included (None: not kept from the arms)."""
+    each arm `arm` [m], their radius included (None: not kept from the arms). `give` [m]: how far the base's and
+    the hands' margins may be lowered where a stance cannot keep them (a relief, in the knot parameters): an
+    obstacle's margin is a preference down to FLOOR, its body a hard limit."""
 
     kind: str
     half: np.ndarray
     base: float | None
     hand: float | None
     arm: float | None = None
+    give: float = 0.0
 
 
 def scene_clearances(
@@ -40,19 +46,21 @@ def scene_clearances(
 ) -> tuple[tuple[Clearance, ...], np.ndarray]:
     """The world's obstacles (scenario order: moving ones update their poses), then every table leg (the base
     may pass under a table's top), then every table's top when the arms are kept clear (`arm_radius` not None),
-    and their poses [centre; yaw] stacked (4 per clearance) where they start. The arms keep their radius plus
-    ARM_MARGIN from obstacles and tops: the obstacle's own margin is the base's and the hands' (a planning
-    buffer the arms, between them, mostly keep anyway), and the hands work just above a table's top."""
+    and their poses [centre; yaw; relief 0] stacked (knot_params.POSE_ROWS per clearance) where they start. The
+    arms keep their radius plus ARM_MARGIN from obstacles and tops: the obstacle's own margin is the base's and the
+    hands' (a planning buffer the arms, between them, mostly keep anyway), and the hands work just above a table's
+    top."""
     arm = None if arm_radius is None else arm_radius + ARM_MARGIN
     shapes = [obstacle_shape(o) for o in world.obstacles]
     clearances = tuple(
-        Clearance(s.kind, s.half, o.margin, o.margin + hand_radius, arm) for o, s in zip(world.obstacles, shapes)
+        Clearance(s.kind, s.half, o.margin, o.margin + hand_radius, arm, max(o.margin - FLOOR, 0.0))
+        for o, s in zip(world.obstacles, shapes)
     )
     legs = [leg for t in world.tables for leg in table_legs(t)]
     clearances += tuple(Clearance("box", leg.half, base_margin, None) for leg in legs)
     tops = [table_top(t) for t in world.tables] if arm is not None else []
     clearances += tuple(Clearance("box", top.half, None, None, arm) for top in tops)
-    poses = [np.r_[s.centre, s.yaw] for s in shapes + legs + tops]
+    poses = [np.r_[s.centre, s.yaw, 0.0] for s in shapes + legs + tops]
     return clearances, np.concatenate(poses or [np.zeros(0)])
 
 
@@ -88,8 +96,8 @@ def clearance_margins(
     """Clearance margins (>= 0: clear) of a configuration q: per obstacle, the base footprint (a smooth soft-min
     over its circles, a lower bound of their minimum; planar) if there is a footprint and it keeps the base away
     and each hand (3-D) if it keeps hands away; after every obstacle's, per obstacle that keeps the arms away each
-    arm's (a soft-min over the arm's points, 3-D: last, see arm_rows). The obstacles' poses are read from the knot
-    parameters `ref`."""
+    arm's (a soft-min over the arm's points, 3-D: last, see arm_rows). The obstacles' poses and reliefs (an
+    obstacle that gives: its base and hand margins less the relief) are read from the knot parameters `ref`."""
     hands = [robot.hand_pose(h, q)[0] for h in range(len(robot.end_effectors))]
     arms = [ps for ps in arm_points(robot, q) if ps] if any(c.arm is not None for c in clearances) else []
     bx, by, byaw = (q[i] for i in robot.base_joints)
@@ -100,14 +108,14 @@ def clearance_margins(
     margins, arm_margins = [], []
     for o, obstacle in enumerate(clearances):
         shape = obstacle.kind, obstacle.half, ref[layout.obstacle_centre(o)], ref[layout.obstacle_yaw(o)]
+        relief = ref[layout.obstacle_relief(o)] if obstacle.give > 0.0 else 0.0
         if circles and obstacle.base is not None:
+            base = obstacle.base - relief
             margins.append(
-                soft_min(
-                    cs.vertcat(*[symbolic_distance(*shape, p, planar=True) - obstacle.base - r for p, r in circles])
-                )
+                soft_min(cs.vertcat(*[symbolic_distance(*shape, p, planar=True) - base - r for p, r in circles]))
             )
         if obstacle.hand is not None:
-            margins += [symbolic_distance(*shape, p) - obstacle.hand for p in hands]
+            margins += [symbolic_distance(*shape, p) - (obstacle.hand - relief) for p in hands]
         if obstacle.arm is not None:
             arm_margins += [soft_min(cs.vertcat(*symbolic_distances(*shape, ps)) - obstacle.arm) for ps in arms]
     return margins + arm_margins

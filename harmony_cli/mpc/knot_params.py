@@ -1,9 +1,11 @@
 """The whole-body MPC's per-knot parameters, named once: one column per knot, rows
 
     per hand      [p_ref (3); vec(R_ref) (9)]          (column-major vec, as casadi.vec)
-    per obstacle  [centre (3); yaw]                    (moving obstacles: their predicted poses)
+    per obstacle  [centre (3); yaw; relief]            (moving obstacles: their predicted poses; relief [m]: how
+                                                        far its margins are lowered, clearance.Clearance.give)
     if compliant  per hand F_ref, then per hand F_meas [N]
     per chest joint  its reference [rad] (0: straight; a stance pose's where the written stance is blocked)
+    stance        the base's reference x, y [m], yaw [rad], then its weight (0: none)
 
 The task residual keeps the hands' rows in the same order: per hand 3 position rows, then 9 rotation rows."""
 
@@ -14,7 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 
 HAND_ROWS = 12
-POSE_ROWS = 4
+POSE_ROWS = 5
+STANCE_ROWS = 4  # x, y, yaw, weight
 
 
 @dataclass(frozen=True)
@@ -26,6 +29,11 @@ class KnotLayout:
 
     @property
     def rows(self) -> int:
+        return self.stance_start + STANCE_ROWS
+
+    @property
+    def stance_start(self) -> int:
+        """The first of the base's reference rows (x, y, yaw, weight)."""
         return self.chest_start + self.n_chest
 
     @property
@@ -35,7 +43,7 @@ class KnotLayout:
 
     @property
     def chest_ref(self) -> slice:
-        return slice(self.chest_start, self.rows)
+        return slice(self.chest_start, self.stance_start)
 
     def hand_position(self, h: int) -> slice:
         return slice(HAND_ROWS * h, HAND_ROWS * h + 3)
@@ -50,7 +58,7 @@ class KnotLayout:
 
     @staticmethod
     def pose_centre(o: int) -> slice:
-        """Obstacle o's centre rows within the block of obstacle poses (4 rows per obstacle)."""
+        """Obstacle o's centre rows within the block of obstacle poses (POSE_ROWS per obstacle)."""
         return slice(POSE_ROWS * o, POSE_ROWS * o + 3)
 
     def obstacle_centre(self, o: int) -> slice:
@@ -59,6 +67,14 @@ class KnotLayout:
 
     def obstacle_yaw(self, o: int) -> int:
         return self.hands_end + POSE_ROWS * o + 3
+
+    @staticmethod
+    def pose_relief(o: int) -> int:
+        """Obstacle o's relief row within the block of obstacle poses."""
+        return POSE_ROWS * o + 4
+
+    def obstacle_relief(self, o: int) -> int:
+        return self.hands_end + self.pose_relief(o)
 
     def force_ref(self, h: int) -> int:
         return self.hands_end + POSE_ROWS * self.n_obstacles + h
@@ -73,10 +89,12 @@ class KnotLayout:
         force_ref: np.ndarray | None = None,
         force_meas: np.ndarray | None = None,
         chest_ref: np.ndarray | None = None,
+        stance: np.ndarray | None = None,
     ) -> np.ndarray:
-        """The parameter vector vec(rows x K): hands (12 hands x K, see hand_rows), obstacle poses (4 obstacles
-        x K), when compliant the force references (hands x K) and measured forces (hands,) held over K, then the
-        chest joints' references (chest joints x K; 0 by default)."""
+        """The parameter vector vec(rows x K): hands (12 hands x K, see hand_rows), obstacle poses (POSE_ROWS
+        obstacles x K), when compliant the force references (hands x K) and measured forces (hands,) held over K,
+        then the chest joints' references (chest joints x K; 0 by default), then the base's stance (STANCE_ROWS x K:
+        x, y, yaw, weight; none by default)."""
         rows = [hands, obstacle_poses]
         if self.compliant:
             K = hands.shape[1]
@@ -84,9 +102,10 @@ class KnotLayout:
                 np.zeros((self.n_hands, K)) if force_ref is None else force_ref,
                 np.tile(np.zeros(self.n_hands) if force_meas is None else force_meas, (K, 1)).T,
             ]
+        K = hands.shape[1]
         if self.n_chest:
-            K = hands.shape[1]
             rows.append(np.zeros((self.n_chest, K)) if chest_ref is None else chest_ref)
+        rows.append(np.zeros((STANCE_ROWS, K)) if stance is None else stance)
         return np.vstack(rows).ravel(order="F")
 
 

@@ -63,7 +63,7 @@ def structure_key(robot: Robot, scenario: Scenario) -> tuple:
         tuple(spec.chest_joints),
         tuple(map(tuple, spec.mirrored_joints)),
         scenario.admittance.model_dump_json() if scenario.admittance.enabled else None,
-        tuple((c.kind, np.asarray(c.half, dtype=float).tobytes(), c.base, c.hand, c.arm) for c in clearances),
+        tuple((c.kind, np.asarray(c.half, dtype=float).tobytes(), c.base, c.hand, c.arm, c.give) for c in clearances),
         tuple(map(tuple, spec.footprint)) if clearances else (),
     )
 

@@ -45,6 +45,7 @@ class WholeBodyMPC:
         _, poses = scenario_clearances(scenario)
         # obstacle poses at every knot (rows of the knot parameters after the hands'); moving ones update them
         self.obstacle_poses = np.tile(poses[:, None], self.transcription.n_knots)
+        self._relieved = False  # whether a relief is set (set_reliefs)
         self.solver = make_solver(self.problem, scenario.solver)  # this run's own: QPs, warm starts
         self.problem.compile_terms()  # for the steps log; after the solver's maps, which the first step waits for
         self.build_time = time.perf_counter() - start
@@ -62,6 +63,18 @@ class WholeBodyMPC:
         the knot times of the next `step`; yaws and tables stay as built."""
         for o, at_knots in enumerate(centres):
             self.obstacle_poses[self.layout.pose_centre(o)] = at_knots.T
+
+    def set_reliefs(self, reliefs: np.ndarray | None) -> None:
+        """How far the first clearances' margins (the world's obstacles, scenario order) are lowered [m] from the
+        next `step` on, each within what it gives (None: none lowered)."""
+        if reliefs is None and not self._relieved:
+            return
+        wanted = np.zeros(len(self.clearances))
+        if reliefs is not None:
+            wanted[: len(reliefs)] = np.clip(reliefs, 0.0, [c.give for c in self.clearances[: len(reliefs)]])
+        for o, relief in enumerate(wanted):
+            self.obstacle_poses[self.layout.pose_relief(o)] = relief
+        self._relieved = reliefs is not None
 
     def _constant(self, q_now: np.ndarray) -> np.ndarray:
         t = self.transcription
@@ -87,13 +100,15 @@ class WholeBodyMPC:
         force_ref: np.ndarray | None = None,
         force_meas: np.ndarray | None = None,
         chest_ref: np.ndarray | None = None,
+        stance: np.ndarray | None = None,
     ) -> tuple[Command, SolveResult]:
         """hand_ref: (12 * hands) x K references at the knot times (knot_params.hand_rows); with admittance,
         force_ref: hands x K squeeze force references and force_meas: (hands,) measured pad normal forces [N];
-        chest_ref: chest joints x K references of the chest joints' cost (None: 0)."""
+        chest_ref: chest joints x K references of the chest joints' cost (None: 0); stance: 4 x K, the base's
+        reference x, y, yaw and its weight at each knot (None: no stance)."""
         if self.force_filter is not None and force_meas is not None:
             self.force_seen = self.force_filter(force_meas)
-        self.params = self.layout.stack(hand_ref, self.obstacle_poses, force_ref, self.force_seen, chest_ref)
+        self.params = self.layout.stack(hand_ref, self.obstacle_poses, force_ref, self.force_seen, chest_ref, stance)
         t, dt, robot = self.transcription, self.control_dt, self.robot
         q_init = np.concatenate([q_now, np.zeros(t.n_dof - q_now.size)])  # the compliant offsets start at 0
         q_init[self.pinned] = robot.home[self.pinned]

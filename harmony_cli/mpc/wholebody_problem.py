@@ -14,10 +14,13 @@ import casadi as cs
 import numpy as np
 
 from harmony_cli.mpc.clearance import Clearance, arm_rows, clearance_function, clearance_margins
-from harmony_cli.mpc.knot_params import KnotLayout
+from harmony_cli.mpc.knot_params import STANCE_ROWS, KnotLayout
 from harmony_cli.mpc.problem import Problem, dense, linear_rows
 from harmony_cli.mpc.transcription import Transcription
 from harmony_cli.robot.model import Robot
+
+STANCE_ARM = 0.5  # [m] a lever arm that makes the base's yaw error a distance, commensurate with its position's
+STANCE_RESIDUALS = 3  # the last rows of the task residual: the base's x, y and yaw from its stance
 
 if TYPE_CHECKING:
     from harmony_cli.scenario.models import AdmittanceSpec, Weights
@@ -34,7 +37,9 @@ def task_residual_function(
     n_chest: int = 0,
 ) -> cs.Function:
     """Weighted per-knot residual r(q, ref) = [sqrt(w_p/K)(p - p_ref - dp n); sqrt(w_o/K) vec(R - R_ref)] per
-    hand, then if `soft`, sqrt(w_c/K) max(0, -margin) for every clearance margin (squared in the cost: C1).
+    hand, then if `soft`, sqrt(w_c/K) max(0, -margin) for every clearance margin (squared in the cost: C1), then
+    the base's stance: sqrt(w_s/K) w_k [x - x_ref; y - y_ref; 2 STANCE_ARM sin((yaw - yaw_ref) / 2)] with the
+    knot's stance weight w_k (a parameter: 0 where there is no stance to keep; the yaw's error wraps).
 
     q = [joints; dp per hand if compliant]: dp is the compliant offset along the pad normal n = R e_z.
     ref: see knot_params.KnotLayout. ||R - R_ref||_F^2 = 2(3 - tr(R_ref^T R)) is sign-safe.
@@ -53,6 +58,10 @@ def task_residual_function(
     if soft:
         wc = np.sqrt(weights.clearance / n_knots)
         parts += [wc * cs.fmax(0, -m) for m in clearance_margins(robot, q[:nd], ref, layout, clearances, footprint)]
+    stance = ref[layout.stance_start : layout.stance_start + STANCE_ROWS]
+    x, y, yaw = (q[i] for i in robot.base_joints)
+    ws = np.sqrt(weights.stance / n_knots) * stance[3]
+    parts += [ws * (x - stance[0]), ws * (y - stance[1]), ws * 2 * STANCE_ARM * cs.sin(0.5 * (yaw - stance[2]))]
     return cs.Function("task_residual", [q, ref], [cs.vertcat(*parts)])
 
 
@@ -141,11 +150,10 @@ def build_problem(
         terms[f"position_{hand}"] = cs.sumsqr(residual[layout.hand_position(h), :])
         terms[f"orientation_{hand}"] = cs.sumsqr(residual[layout.hand_rotation(h), :])
     if soft:
-        terms["clearance"] = cs.sumsqr(residual[layout.hands_end :, :])
+        terms["clearance"] = cs.sumsqr(residual[layout.hands_end : -STANCE_RESIDUALS, :])
+    terms["stance"] = cs.sumsqr(residual[-STANCE_RESIDUALS:, :])
     linear = linear_residuals(robot, knots, ref, layout, weights, chest_joints, mirrored_joints, admittance)
-    for name, r in linear.items():
-        terms[name] = cs.sumsqr(r)
-
+    terms |= {name: cs.sumsqr(r) for name, r in linear.items()}
     constraint = (
         clearance_function(robot, clearances, footprint, layout.compliant, layout.n_chest)
         if clearances and not soft

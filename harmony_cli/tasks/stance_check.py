@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from harmony_cli.maths.shapes import table_legs
+from harmony_cli.mpc.clearance import FLOOR
 from harmony_cli.mpc.hand_plan import Obstacle
 from harmony_cli.mpc.plan_base import PlannedBase
 from harmony_cli.robot.model import Robot
@@ -47,7 +48,8 @@ def unposed(scenario: Scenario, robot: Robot) -> str | None:
 def no_pose(stance: Stance, trunk: bool, starts: int) -> str:
     """That no base pose was found for a stance's phases from `starts` starts (`trunk`: the robot has one)."""
     where = stance.phases[0] if len(stance.phases) == 1 else f"{stance.phases[0]} to {stance.phases[-1]}"
-    clear = "clear of the scene (the trunk out from under table tops)" if trunk else "clear of the scene"
+    clear = f"clear of the scene (obstacles' margins down to {FLOOR:g} m"
+    clear += "; the trunk out from under table tops)" if trunk else ")"
     return (
         f"stance: no base pose found, {clear}, from which the hands reach phases {where} at {stance.pivot} "
         f"({starts} starts searched; not a proof that none exists)"

@@ -4,13 +4,17 @@ written stance is blocked (stance.py's warning), a base pose that works at its p
 - a via: the group's first plan routes the hands through the pose's position, so they come to the pivot from where
   the base can stand and the base, which follows them, arrives on that side of whatever blocks the written stance
   (only when the group's first phase works at the pivot: an approach's pose is not the one found);
+- a stance: at the knots whose planned hands are at the pivot of a blocked group, the whole-body MPC's stance cost
+  pulls the base towards the pose found nearest where it stands;
 - a chest posture: near the pivot of a blocked group, the whole-body MPC's chest cost pulls the chest to the
   angle of the pose found nearest where the base stands (poses from every start of the search: one each side of
   the pivot, typically), instead of straight ahead, so the base may stand turned where the scene leaves room. Why:
   a pose found for a place blocked from its front stands the base turned and the chest turned back; a chest cost
   pulling to 0 holds the chest straight and the hands short of the goal instead. The posture is the nearest pose's
   (a pose from the pivot's other side turns the arms the wrong way), fixed rather than squared to the measured
-  base (nothing would then hold the base's yaw), and only in the group's phases.
+  base (nothing would then hold the base's yaw), and only in the group's phases;
+- reliefs: where the pose goes into an obstacle's margin (no pose found keeps it, stance_pose.py), the whole-body
+  MPC's margins of that obstacle are lowered as far in the group's phases, so it can stand the base there.
 Cost: the search's starts, once before the loop (about 2 s with a blocked stance, nothing without one).
 """
 
@@ -28,65 +32,101 @@ from harmony_cli.tasks.stance_pose import stance_poses
 
 NEAR = 0.2  # [m] a phase works at its group's pivot when its hands' midpoint is this near it (plan view)
 BLEND = 1.0  # [m] the chest posture blends in over this distance of the planned hands' midpoint to NEAR
+# [m] the stance blends in over this distance: it is where the base ends, at the knots whose planned hands are at the
+# pivot; on the way there the base follows the hands (a stance pulled while carrying twists the grip)
+STANCE_BLEND = 0.3
+RELIEF_SPREAD = 0.05  # [m] poses kept: those going this much further into margins than the least does, at most
+# [m] added to a relief the poses need: a pose found stands at its limits, and the whole-body MPC, which tracks the
+# hands, needs room round it to get there
+RELIEF_SPARE = 0.05
 
 
 @dataclass(frozen=True)
-class ChestPosture:
-    """A blocked group's phases (indices) at `pivot` (2,), and the poses found there: their base positions (n, 2) and
-    chest angles (n, chest joints) [rad]."""
+class Posture:
+    """A blocked group's phases (indices) at `pivot` (2,), and the poses found there: their base poses (n, 3: x, y,
+    yaw) and chest angles (n, chest joints) [rad]."""
 
     phases: frozenset[int]
     pivot: np.ndarray
     bases: np.ndarray
     chests: np.ndarray
 
-    def at(self, hands: np.ndarray, base: np.ndarray) -> np.ndarray:
-        """(chest joints, K): with the planned `hands` (K, 2, 3) at the knots and the base's measured position (2,),
-        the chest angles of the pose nearest the base, in full within NEAR of the pivot (plan view), fading to 0 at
-        NEAR + BLEND."""
-        chest = self.chests[int(np.argmin(np.linalg.norm(self.bases - base, axis=1)))]
+    def _nearest(self, hands: np.ndarray, base: np.ndarray, width: float) -> tuple[int, np.ndarray]:
+        """The pose nearest the base's measured position (2,), and its blend at the planned `hands` (K, 2, 3): 1
+        within NEAR of the pivot (plan view), fading to 0 at NEAR + `width`."""
         near = np.linalg.norm(hands.mean(axis=1)[:, :2] - self.pivot, axis=1)
-        return chest[:, None] * np.clip(1.0 - (near - NEAR) / BLEND, 0.0, 1.0)[None]
+        nearest = int(np.argmin(np.linalg.norm(self.bases[:, :2] - base, axis=1)))
+        return nearest, np.clip(1.0 - (near - NEAR) / width, 0.0, 1.0)
+
+    def chest(self, hands: np.ndarray, base: np.ndarray) -> np.ndarray:
+        """(chest joints, K): the nearest pose's chest angles, blended over BLEND."""
+        nearest, blend = self._nearest(hands, base, BLEND)
+        return self.chests[nearest][:, None] * blend[None]
+
+    def stance(self, hands: np.ndarray, base: np.ndarray) -> np.ndarray:
+        """(4, K): the base where the nearest pose stands it from the pivot, carried with the planned hands'
+        midpoint (x, y; its yaw the pose's), and its weight, the blend over STANCE_BLEND."""
+        nearest, blend = self._nearest(hands, base, STANCE_BLEND)
+        offset = self.bases[nearest][:2] - self.pivot
+        xy = hands.mean(axis=1)[:, :2] + offset  # (K, 2)
+        return np.vstack([xy.T, np.full(blend.size, self.bases[nearest][2]), blend])
 
 
 @dataclass(frozen=True)
 class StancePlan:
     vias: dict[int, np.ndarray]  # phase index -> (2,) the pose's position, for that phase's first plan
-    postures: list[ChestPosture]  # none for a robot without chest joints
+    postures: list[Posture]
     unplaced: list[Stance]  # blocked groups for which no pose was found
+    reliefs: dict[int, np.ndarray]  # phase index -> per world obstacle, how far the whole-body MPC's margin drops
+    has_chest: bool = True
+
+    def _posture(self, phase: int) -> Posture | None:
+        return next((p for p in self.postures if phase in p.phases), None)
 
     def chest(self, phase: int, hands: np.ndarray, base: np.ndarray) -> np.ndarray | None:
-        """The chest reference (chest joints, K) in `phase` (ChestPosture.at); None (straight) outside a blocked
-        group."""
-        posture = next((p for p in self.postures if phase in p.phases), None)
-        return None if posture is None else posture.at(hands, base)
+        """The chest reference (chest joints, K) in `phase` (Posture.chest); None (straight) outside a blocked
+        group or for a robot without chest joints."""
+        posture = self._posture(phase)
+        return None if posture is None or not self.has_chest else posture.chest(hands, base)
+
+    def stance(self, phase: int, hands: np.ndarray, base: np.ndarray) -> np.ndarray | None:
+        """The base's stance (4, K) in `phase` (Posture.stance); None outside a blocked group."""
+        posture = self._posture(phase)
+        return None if posture is None else posture.stance(hands, base)
 
 
 def stance_plan(scenario: Scenario, robot: Robot, found: list[Stance], heading_offset: float) -> StancePlan:
-    """The vias and chest postures of the blocked groups among `found`, and the groups with no pose found."""
+    """The vias, postures, stances and reliefs of the blocked groups among `found`, and the groups with no pose
+    found. The poses kept are those that go no further into a margin than the least does by RELIEF_SPREAD; the
+    group's reliefs are the most any of them needs."""
     assert scenario.task is not None
     names = [p.name for p in scenario.task.phases]
     chest = [robot.index(j) for j in scenario.robot.chest_joints]
     vias, postures, unplaced = {}, [], []
+    reliefs: dict[int, np.ndarray] = {}
     for stance in found:
         if stance.warning() is None:
             continue
         at_pivot = pivot_targets(scenario, robot, stance, heading_offset)
-        if at_pivot is None or not (at_pivot[2] or chest):  # neither a via nor a posture would use a pose
+        if at_pivot is None:
             continue
-        poses = stance_poses(scenario, robot, *at_pivot[:2], first=not chest)
+        poses = stance_poses(scenario, robot, *at_pivot[:2])
         if not poses:
             if at_pivot[2]:
                 unplaced.append(stance)
             continue
+        least = float(poses[0].reliefs.sum())
+        poses = [pose for pose in poses if float(pose.reliefs.sum()) <= least + RELIEF_SPREAD]
         if at_pivot[2]:
-            vias[names.index(stance.phases[0])] = poses[0][0][:2]
-        if chest:
-            phases = frozenset(names.index(n) for n in stance.phases)
-            bases = np.array([base[:2] for base, _ in poses])
-            chests = np.array([np.median(joints[:, chest], axis=0) for _, joints in poses])
-            postures.append(ChestPosture(phases, stance.pivot_position[:2], bases, chests))
-    return StancePlan(vias, postures, unplaced)
+            vias[names.index(stance.phases[0])] = poses[0].base[:2]
+        phases = frozenset(names.index(n) for n in stance.phases)
+        if least > 0.0:
+            needed = np.max([pose.reliefs for pose in poses], axis=0)
+            reliefs |= dict.fromkeys(phases, np.where(needed > 0.0, needed + RELIEF_SPARE, 0.0))
+        bases = np.array([pose.base for pose in poses])
+        chests = np.array([np.median(pose.joints[:, chest], axis=0) for pose in poses]).reshape(len(poses), -1)
+        postures.append(Posture(phases, stance.pivot_position[:2], bases, chests))
+    return StancePlan(vias, postures, unplaced, reliefs, bool(chest))
 
 
 def pivot_targets(

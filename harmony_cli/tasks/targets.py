@@ -17,6 +17,8 @@ class HandTargets:
     now: np.ndarray  # (hands, 3) where the hands are asked to be at t (what tracking errors are measured from)
     force_ref: np.ndarray | None = None  # (hands, K) squeeze force references [N] when the admittance is on
     chest_ref: np.ndarray | None = None  # (chest joints, K) [rad] where the chest cost pulls (None: straight)
+    stance: np.ndarray | None = None  # (4, K) where the base's cost pulls: x, y [m], yaw [rad], weight (None: none)
+    reliefs: np.ndarray | None = None  # (clearances,) [m] how far the whole-body MPC's margins are lowered (None: 0)
     log: dict = field(default_factory=dict)  # fields for the step record (phase, planner status and timing)
 
 

@@ -104,8 +104,12 @@ class TaskReferences:
         force_ref = None
         if self.schedule.admittance.enabled:
             force_ref = np.tile(self.schedule.force(t + knot_times), (len(self.schedule.hand_names), 1))
-        chest_ref = self.stance_plan.chest(active.index, positions, obs.q[self.base_xy])
-        return HandTargets(positions, rotations, positions[0] if now is None else now, force_ref, chest_ref, log)
+        base = obs.q[self.base_xy]
+        chest_ref = self.stance_plan.chest(active.index, positions, base)
+        stance = self.stance_plan.stance(active.index, positions, base)
+        reliefs = self.stance_plan.reliefs.get(active.index)
+        now = positions[0] if now is None else now
+        return HandTargets(positions, rotations, now, force_ref, chest_ref, stance, reliefs, log)
 
     def _free_handed(self, goal: np.ndarray, box: np.ndarray | None, t: float) -> bool:
         """Whether a phase starting at `t` with the hands' `goal` (hands, 3) neither holds the box nor works at it
