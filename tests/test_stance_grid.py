@@ -11,6 +11,7 @@ from shapely.affinity import rotate, translate
 from shapely.geometry import box
 
 from harmony_cli.maths.rotations import rot_z
+from harmony_cli.mpc.clearance import SOFTMIN
 from harmony_cli.robot.reach import arm_joints
 from harmony_cli.scenario import load_scenario, robot_of
 from harmony_cli.tasks.stance_pose import POSITION_TOL, ROTATION_TOL, stance_poses
@@ -22,7 +23,6 @@ SCENE = ["world.obstacles.cylinder.position=[5.14,0.64,1.0]"]
 PLACE = np.array([[[6.1, 0.154, 1.245], [6.1, -0.154, 1.245]]])  # the paper's lower phase: heading 0
 STEP_M, STEP_DEG = 0.05, 7.5
 REACH = 1.2  # [m] the grid's poses within this of the targets' midpoint: beyond the arms' reach
-SOFT_MIN = 0.025  # [m] the search's footprint distance is a soft-min over its circles, below their min by this
 
 
 def _outlines(scenario):
@@ -128,7 +128,8 @@ def test_the_search_goes_no_further_into_a_margin_than_the_best_pose_of_a_grid_a
     grid = grid[np.hypot(*(grid[:, :2] - PLACE[0, :, :2].mean(axis=0)).T) < REACH]
     reliefs = _grid_reliefs(scenario, grid)
     reach = _Reach(robot, scenario.robot.chest_joints)
-    slack = SOFT_MIN + STEP_M  # the soft-min's bias and a grid step
+    # the search's footprint distance is a soft-min over its circles, below their min by up to SOFTMIN ln(circles)
+    slack = SOFTMIN * np.log(len(scenario.robot.footprint)) + STEP_M  # that bias and a grid step
     # no grid pose that goes less far into the margin than the search's, by more than the slack, reaches
     better = np.flatnonzero(reliefs < searched - slack)
     assert len(better) > 100  # many poses to try (those clear of the margin among them)

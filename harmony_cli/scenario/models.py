@@ -24,7 +24,9 @@ class Weights(Strict):
     clearance: float = Field(1.0e4, ge=0, description="squared clearance violation (mpc.clearance: soft only)")
     acceleration: float = Field(0.001, ge=0, description="joint acceleration at the knots")
     stance: float = Field(
-        0.1, ge=0, description="the base towards the stance the planning layer chose, where it chose one [1/m^2]"
+        0.0,
+        ge=0,
+        description="the base towards the stance the planning layer chose, where it chose one [1/m^2] (0: off)",
     )
 
 

@@ -106,7 +106,9 @@ class TaskReferences:
             force_ref = np.tile(self.schedule.force(t + knot_times), (len(self.schedule.hand_names), 1))
         base = obs.q[self.base_xy]
         chest_ref = self.stance_plan.chest(active.index, positions, base)
-        stance = self.stance_plan.stance(active.index, positions, base)
+        # the base's stance only where its cost is on (mpc.weights.stance): nothing to compute each step otherwise
+        pull = self.scenario.mpc.weights.stance > 0.0
+        stance = self.stance_plan.stance(active.index, positions, base) if pull else None
         reliefs = self.stance_plan.reliefs.get(active.index)
         now = positions[0] if now is None else now
         return HandTargets(positions, rotations, now, force_ref, chest_ref, stance, reliefs, log)
