@@ -7,9 +7,9 @@ import numpy as np
 
 from harmony_cli.maths.bezier import bernstein_basis
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.mpc.hand_plan import HandState, Obstacle
-from harmony_cli.mpc.plan_base import PlannedBase
-from harmony_cli.mpc.planner import TaskPlanner
+from harmony_cli.planning.hand_mpc import HandMPC
+from harmony_cli.planning.hand_plan import HandState, Obstacle
+from harmony_cli.planning.plan_base import PlannedBase
 from harmony_cli.scenario import PlannerSpec
 
 SPEC = PlannerSpec()
@@ -88,7 +88,7 @@ def test_screen_is_a_lower_bound_of_the_footprint_margin():
 
 
 def _plan(obstacles: list[Obstacle], base: PlannedBase | None, goal=GOAL):
-    planner = TaskPlanner(SPEC, obstacles, HOME, OFFSET, None, base)
+    planner = HandMPC(SPEC, obstacles, HOME, OFFSET, None, base)
     return planner.step(0.0, HandState(START, np.zeros((2, 3)), 0.0), goal, 6.0, 0)
 
 
@@ -138,7 +138,7 @@ def test_a_hand_starting_inside_two_margins_that_pull_apart_gets_a_plan_out_at_a
 
 def test_plan_view_distances_equal_each_shape_s_own_distance():
     # plan_base's plan-view distance against maths/shapes.py's Shape.distance, box and cylinder, in and outside
-    from harmony_cli.mpc.plan_base import _plan_distance
+    from harmony_cli.planning.plan_base import _plan_distance
 
     rng = np.random.default_rng(3)
     shapes = [

@@ -7,9 +7,9 @@ import pytest
 
 from harmony_cli.maths.bezier import difference_matrix, evaluate
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.mpc.hand_plan import HandState, Obstacle
-from harmony_cli.mpc.plan_horizon import least_horizon, meets
-from harmony_cli.mpc.planner import TaskPlanner
+from harmony_cli.planning.hand_mpc import HandMPC
+from harmony_cli.planning.hand_plan import HandState, Obstacle
+from harmony_cli.planning.plan_horizon import least_horizon, meets
 from harmony_cli.scenario import PlannerSpec
 
 SPEC = PlannerSpec()
@@ -26,7 +26,7 @@ def _cylinder(y: float) -> Obstacle:
 
 
 def _plan(obstacles=(), goal=GOAL, phase_end=PHASE_END, carrying=None, drop=0.0, ceiling=None):
-    planner = TaskPlanner(SPEC, list(obstacles), HOME, OFFSET, ceiling=ceiling)
+    planner = HandMPC(SPEC, list(obstacles), HOME, OFFSET, ceiling=ceiling)
     args = (HandState(START, np.zeros((2, 3)), 0.0), goal, phase_end, 0, carrying, drop)
     result = planner.step(0.0, *args)
     if planner.route_pending:  # the phase's first plan wants a route: the next step tries it
@@ -145,7 +145,7 @@ def test_a_scene_turned_about_z_gives_the_plan_turned_the_same_whatever_the_robo
     ]
     start, goal = START @ turn.T, GOAL @ turn.T
     d = start[1] - start[0]
-    planner = TaskPlanner(SPEC, turned_obstacles, np.stack([turn, turn]), -np.arctan2(d[1], d[0]))
+    planner = HandMPC(SPEC, turned_obstacles, np.stack([turn, turn]), -np.arctan2(d[1], d[0]))
     turned = planner.step(0.0, HandState(start, np.zeros((2, 3)), 0.0), goal, PHASE_END, 0, CARRYING)
     _, result = _plan(obstacles, carrying=CARRYING)
     assert turned.success and result.success
@@ -188,7 +188,7 @@ def _goal_with_raw_heading(raw: float) -> np.ndarray:
 
 
 def test_goal_heading_unwraps_to_the_heading_nearest_the_current_one():
-    planner = TaskPlanner(SPEC, [], HOME, OFFSET)
+    planner = HandMPC(SPEC, [], HOME, OFFSET)
     assert planner.goal_heading(_goal_with_raw_heading(-3.0), 3.0) == pytest.approx(2 * np.pi - 3.0, abs=1e-12)
     assert planner.goal_heading(_goal_with_raw_heading(3.0), -3.0) == pytest.approx(3.0 - 2 * np.pi, abs=1e-12)
     rng = np.random.default_rng(3)
@@ -242,7 +242,7 @@ def test_a_start_inside_an_obstacle_s_margin_gets_a_plan_short_of_it_by_no_more_
 
 
 def test_a_phase_s_first_plan_that_wants_a_route_gets_it_on_the_next_step():
-    planner = TaskPlanner(SPEC, [_cylinder(0.0)], HOME, OFFSET)
+    planner = HandMPC(SPEC, [_cylinder(0.0)], HOME, OFFSET)
     args = (HandState(START, np.zeros((2, 3)), 0.0), GOAL, PHASE_END, 0, None)  # free hands: succeeds, not clean
     first = planner.step(0.0, *args)
     assert not first.routed and planner.route_pending  # one SQP on this step
@@ -256,7 +256,7 @@ def test_a_phase_s_first_plan_that_wants_a_route_gets_it_on_the_next_step():
 def test_a_carry_blocked_on_the_straight_line_takes_the_line_s_plan_short_of_the_cylinder_then_its_route():
     # carried, the box cannot pass the cylinder on the straight line: that plan falls short of the clearance (the
     # slack), the next step runs the route's SQP alone, to a plan clear of it
-    planner = TaskPlanner(SPEC, [_cylinder(0.0)], HOME, OFFSET)
+    planner = HandMPC(SPEC, [_cylinder(0.0)], HOME, OFFSET)
     state = HandState(START, np.zeros((2, 3)), 0.0)
     line = planner.step(0.0, state, GOAL, PHASE_END, 0, CARRYING)
     assert line.success and line.shortfall > 0.05 and planner.route_pending
@@ -267,7 +267,7 @@ def test_a_carry_blocked_on_the_straight_line_takes_the_line_s_plan_short_of_the
 
 @pytest.mark.parametrize("side", [1.0, -1.0])
 def test_a_phase_with_a_point_to_pass_gets_the_route_through_it_at_once(side):
-    planner = TaskPlanner(SPEC, [_cylinder(0.0)], HOME, OFFSET)
+    planner = HandMPC(SPEC, [_cylinder(0.0)], HOME, OFFSET)
     planner.via = np.array([1.7, 0.8 * side])  # beside the cylinder on the straight path, on either side
     result = planner.step(0.0, HandState(START, np.zeros((2, 3)), 0.0), GOAL, PHASE_END, 0, CARRYING)
     assert result.routed and not planner.route_pending

@@ -1,4 +1,4 @@
-"""What a blocked stance changes (tasks/stance_plan.py): the chest posture and the base's stance, which pose they
+"""What a blocked stance changes (planning/stance_plan.py): the chest posture and the base's stance, which pose they
 take and where, checked against Pinocchio's kinematics and plain geometry; which phases get one; and the margins
 the whole-body MPC lowers where no pose keeps them."""
 
@@ -9,10 +9,10 @@ import pinocchio as pin
 import pytest
 
 from harmony_cli.mpc.clearance import FLOOR
+from harmony_cli.planning.planner import Planner
+from harmony_cli.planning.stance_plan import BLEND, NEAR, RELIEF_SPARE, STANCE_BLEND, Posture, pivot_targets
+from harmony_cli.planning.stance_pose import POSITION_TOL, stance_poses
 from harmony_cli.scenario import load_scenario, robot_of
-from harmony_cli.tasks.stance_plan import BLEND, NEAR, RELIEF_SPARE, STANCE_BLEND, Posture, pivot_targets
-from harmony_cli.tasks.stance_pose import POSITION_TOL, stance_poses
-from harmony_cli.tasks.two_stage import TaskReferences
 
 PAPER = Path(__file__).parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml"
 BLOCKED_PLACE = ["world.obstacles.cylinder.position=[4.5,0.2,1.0]"]
@@ -24,7 +24,7 @@ EITHER_SIDE = ["world.obstacles.cylinder.position=[4.13,0.08,1.0]"]
 def _references(*overrides):
     scenario = load_scenario(PAPER, list(overrides))
     robot = robot_of(scenario, PAPER.parent)
-    return scenario, robot, TaskReferences(robot, scenario)
+    return scenario, robot, Planner(robot, scenario)
 
 
 def _hands(middle):

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from harmony_cli.mpc.hand_plan import SHORT, Obstacle, Solved
+from harmony_cli.planning.hand_plan import SHORT, Obstacle, Solved
 
 BETWEEN = np.array([0.25, 0.5, 0.75])  # fractions of the way from hand 0 to hand 1 checked for an obstacle
 CLEARANCE_SLACK = 5e-3  # [m] predicted clearance shortfall tolerated in a phase's first plan

@@ -9,9 +9,9 @@ n w_k d / T (and 0 at the goal), its accelerations n (n - 1) (w_1 d - v0 T / n) 
 n (n - 1) (w_{k+1} - w_k) d / T^2 between (w_{m+1} = 0) and 0 at the goal. Each bound |alpha + beta T| <= gamma T^j
 (j = 1, 2) holds for every T above the largest root of the two polynomials it is: the largest over the bounds and
 curves is the horizon a shape needs, and the least over the shapes is the horizon. An even profile suits long
-moves (speed-bound), the arch short ones (acceleration-bound). Against the least horizon at which any plan meets
-the bounds (a linear program over the free control points), rest to rest along one axis of the default planner:
-exact for 8 m, 2-3 % longer for 2-3.5 m, 13 % for 0.1-0.5 m."""
+moves (speed-bound), the arch short ones (acceleration-bound). The result is never shorter than the least horizon
+at which any plan meets the bounds (a linear program over the free control points) and close to it for long moves;
+short moves get a more conservative horizon, which costs time, never feasibility."""
 
 from __future__ import annotations
 

@@ -6,12 +6,18 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
+from functools import partial
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from harmony_cli.maths.bezier import bernstein_basis
 from harmony_cli.maths.rotations import rot_z
-from harmony_cli.maths.shapes import Shape
+from harmony_cli.maths.shapes import Shape, obstacle_shape
+from harmony_cli.tasks.motion import centre_at
+
+if TYPE_CHECKING:
+    from harmony_cli.scenario.world import ObstacleSpec
 
 ROWS = 7  # hand 0 xyz, hand 1 xyz, heading
 
@@ -58,27 +64,22 @@ class Plan:
         return positions, rotations
 
 
-@dataclass(frozen=True)
-class PlannerResult:
-    plan: Plan
-    success: bool
-    status: str  # for the steps log (Solved.status)
-    iterations: int
-    solve_time: float
-    min_clearance: float  # predicted, over samples and obstacles [m] (inf without obstacles)
-    routed: bool = False  # the SQP was seeded on a route round the obstacles
-    shortfall: float = 0.0  # [m] the largest clearance the plan falls short of (its QP's slack)
-
-
 Ends = tuple[HandState, np.ndarray, float]  # the measured state, the goal (2, 3), the goal heading
 
 
 class Outcome(Enum):
-    """How an SQP ended: its last step below the tolerance, its iterations spent, or a QP that failed."""
+    """How a plan ended: its SQP's last step below the tolerance, its iterations spent, or a QP that failed; or a
+    plan not taken because it holds non-finite numbers or the planner's numerics raised."""
 
     CONVERGED = "converged"
     STEPPED = "stepped"
     FAILED = "qp failed"
+    NON_FINITE = "non-finite plan"
+    ERROR = "exception"
+
+    @property
+    def success(self) -> bool:
+        return self in (Outcome.CONVERGED, Outcome.STEPPED)
 
 
 SHORT = 5e-3  # [m] a slack above this is a clearance the plan falls short of
@@ -100,7 +101,7 @@ class Solved:
 
     @property
     def success(self) -> bool:
-        return self.outcome is not Outcome.FAILED
+        return self.outcome.success
 
     @property
     def converged(self) -> bool:
@@ -108,7 +109,45 @@ class Solved:
 
     @property
     def status(self) -> str:
-        """For the steps log: the outcome, "(route)" when routed, the shortfall when there is one."""
-        routed = " (route)" if self.routed else ""
-        short = f" (short {100 * self.shortfall:.1f} cm)" if self.shortfall > SHORT else ""
-        return f"{self.outcome.value}{routed}{short}"
+        return status_line(self.outcome, self.routed, self.shortfall)
+
+
+@dataclass(frozen=True)
+class PlannerResult:
+    """The hands' MPC's answer at one step: the plan the controllers sample (the last good one when this step's
+    was not taken), how this step's plan ended, and what the step log records of it."""
+
+    plan: Plan
+    outcome: Outcome
+    iterations: int
+    solve_time: float
+    min_clearance: float  # predicted, over samples and obstacles [m] (inf without obstacles)
+    routed: bool = False  # the SQP was seeded on a route round the obstacles
+    shortfall: float = 0.0  # [m] the largest clearance the plan falls short of (its QP's slack)
+    detail: str = ""  # what raised, for an ERROR
+
+    @property
+    def success(self) -> bool:
+        return self.outcome.success
+
+    @property
+    def status(self) -> str:
+        return status_line(self.outcome, self.routed, self.shortfall, self.detail)
+
+
+def status_line(outcome: Outcome, routed: bool, shortfall: float, detail: str = "") -> str:
+    """For the steps log: the outcome, what raised, "(route)" when routed, the shortfall when there is one."""
+    what = f" {detail}" if detail else ""
+    route = " (route)" if routed else ""
+    short = f" (short {100 * shortfall:.1f} cm)" if shortfall > SHORT else ""
+    return f"{outcome.value}{what}{route}{short}"
+
+
+def planned_obstacles(obstacles: list[ObstacleSpec], grow: float) -> list[Obstacle]:
+    """The scenario's `obstacles` as the planner and the base's footprint keep clear of them: each shape where it
+    starts, its margin plus `grow` as the clearance (the hands': their radius; the footprint's: 0), its true motion
+    as the predictor (None: it stands)."""
+    return [
+        Obstacle(obstacle_shape(o), o.margin + grow, partial(centre_at, o) if o.motion is not None else None)
+        for o in obstacles
+    ]

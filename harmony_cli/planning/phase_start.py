@@ -10,13 +10,13 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
-from harmony_cli.mpc.plan_checks import is_clean, rank
-from harmony_cli.mpc.plan_seed import fix_ends, on_route, straight_to
+from harmony_cli.planning.plan_checks import is_clean, rank
+from harmony_cli.planning.plan_seed import fix_ends, on_route, straight_to
 
 if TYPE_CHECKING:
-    from harmony_cli.mpc.hand_plan import Ends, Solved
-    from harmony_cli.mpc.hand_sqp import HandSQP
-    from harmony_cli.mpc.plan_seed import Ground
+    from harmony_cli.planning.hand_plan import Ends, Solved
+    from harmony_cli.planning.hand_sqp import HandSQP
+    from harmony_cli.planning.plan_seed import Ground
 
 
 def on_route_plan(sqp: HandSQP, ground: Ground | None, t: float, T: float, ends: Ends, carried, width, via=None):

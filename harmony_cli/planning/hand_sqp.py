@@ -22,10 +22,10 @@ import numpy as np
 from harmony_cli.maths.bezier import bernstein_basis, difference_matrix
 from harmony_cli.mpc.codegen import Buffered
 from harmony_cli.mpc.distance_code import CompiledDistance
-from harmony_cli.mpc.footprint_code import CompiledMargins
-from harmony_cli.mpc.hand_plan import ROWS, Ends, Obstacle, Outcome, Solved
-from harmony_cli.mpc.plan_base import PlannedBase
-from harmony_cli.mpc.plan_seed import fit_matrix, fix_ends
+from harmony_cli.planning.footprint_code import CompiledMargins
+from harmony_cli.planning.hand_plan import ROWS, Ends, Obstacle, Outcome, Solved
+from harmony_cli.planning.plan_base import PlannedBase
+from harmony_cli.planning.plan_seed import fit_matrix, fix_ends
 
 if TYPE_CHECKING:
     from harmony_cli.scenario.models import PlannerSpec

@@ -24,11 +24,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from harmony_cli.planning.stance import Stance
+from harmony_cli.planning.stance_pose import stance_poses
 from harmony_cli.robot.model import Robot
 from harmony_cli.scenario import Scenario
 from harmony_cli.tasks.as_written import target_position
-from harmony_cli.tasks.stance import Stance
-from harmony_cli.tasks.stance_pose import stance_poses
 
 NEAR = 0.2  # [m] a phase works at its group's pivot when its hands' midpoint is this near it (plan view)
 BLEND = 1.0  # [m] the chest posture blends in over this distance of the planned hands' midpoint to NEAR

@@ -8,7 +8,7 @@ Global guidance: a local SQP linearised at the straight line cannot find its way
 phase's first plan that does not converge, falls short of a clearance or splits the hands asks for the SQP from
 the straight line moved onto the shortest planar route round obstacles and tables, wide enough for the base
 (plan_seed, route.py), on the next step, instead of that plan's own step. A phase with a point to pass (`via`: a
-base pose that works at a blocked stance, tasks/stance_pose.py) gets the route through it at once (phase_start.py).
+base pose that works at a blocked stance, planning/stance_pose.py) gets the route through it at once (phase_start.py).
 """
 
 from __future__ import annotations
@@ -19,14 +19,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from harmony_cli.maths.bezier import shift_matrix
-from harmony_cli.mpc.hand_plan import Ends, HandState, Obstacle, Plan, PlannerResult
-from harmony_cli.mpc.hand_sqp import HandSQP
-from harmony_cli.mpc.phase_start import first_plan, on_route_plan
-from harmony_cli.mpc.plan_base import PlannedBase
-from harmony_cli.mpc.plan_checks import goal_reliefs
-from harmony_cli.mpc.plan_horizon import least_horizon, meets
-from harmony_cli.mpc.plan_seed import Ground, straight_to, warm_outlines
 from harmony_cli.mpc.problem import NoPlanToHold
+from harmony_cli.planning.hand_plan import Ends, HandState, Obstacle, Outcome, Plan, PlannerResult
+from harmony_cli.planning.hand_sqp import HandSQP
+from harmony_cli.planning.phase_start import first_plan, on_route_plan
+from harmony_cli.planning.plan_base import PlannedBase
+from harmony_cli.planning.plan_checks import goal_reliefs
+from harmony_cli.planning.plan_horizon import least_horizon, meets
+from harmony_cli.planning.plan_seed import Ground, straight_to, warm_outlines
 
 if TYPE_CHECKING:
     from harmony_cli.scenario.models import PlannerSpec
@@ -34,7 +34,7 @@ if TYPE_CHECKING:
 MAX_STRETCH = 5.0  # the longest horizon as a multiple of the phase's remaining time
 
 
-class TaskPlanner:
+class HandMPC:
     """Built once for a set of obstacles; `step` re-plans from the measured hand state."""
 
     def __init__(
@@ -109,7 +109,7 @@ class TaskPlanner:
         key = (phase, carried is None, goal.tobytes())  # the goal's reliefs: once a phase
         if key != self._relief_key:
             self.sqp.reliefs, self._relief_key = goal_reliefs(self.obstacles, goal, t + T, carried), key
-        via = self.via if fresh else None  # TaskReferences sets it at a phase change: the phase's first plan only
+        via = self.via if fresh else None  # Planner sets it at a phase change: the phase's first plan only
         route_now, self.via, self._route_next = self._route_next, None, False
         # the way to a chosen stance is known (the straight line leads to the blocked side), or the last step asked
         # for a route: its route's SQP alone (one SQP a step), the plan's own step if there is none or it fails
@@ -120,17 +120,17 @@ class TaskPlanner:
             solved, self._route_next = first_plan(
                 self.sqp, self.ground, C, t, T, ends, (iterations, carried, width), fresh and not route_now
             )
-        success, status = solved.success, solved.status
-        if success and not np.isfinite(solved.C).all():  # NaN / inf never becomes the plan: the last one is held
-            success, status = False, "non-finite plan"
-        if success:
+        outcome = solved.outcome
+        if outcome.success and not np.isfinite(solved.C).all():  # NaN / inf never becomes the plan: the last is held
+            outcome = Outcome.NON_FINITE
+        if outcome.success:
             self.C, self.phase, self.t_plan, self.T_plan = solved.C, phase, t, solved.T
         if self.C is None:
-            raise NoPlanToHold(f"first planner solve failed ({status}); no plan to hold")
+            raise NoPlanToHold(f"first planner solve failed ({solved.status}); no plan to hold")
         plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
         elapsed = time.perf_counter() - start_time
         return PlannerResult(
-            plan, success, status, solved.iterations, elapsed, solved.clearance, solved.routed, solved.shortfall
+            plan, outcome, solved.iterations, elapsed, solved.clearance, solved.routed, solved.shortfall
         )
 
     def horizon(self, ends: Ends, remaining: float) -> float:
