@@ -16,7 +16,7 @@ from harmony_cli.planning.hand_plan import HandState, Outcome, PlannerResult, pl
 from harmony_cli.planning.plan_base import PlannedBase
 from harmony_cli.planning.plan_seed import Ground
 from harmony_cli.planning.stance_check import base_bodies, home_hands, no_pose, written_stances
-from harmony_cli.planning.stance_plan import NEAR, stance_plan
+from harmony_cli.planning.stance_plan import NEAR, ChestRamp, stance_plan
 from harmony_cli.planning.stance_pose import STARTS
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.observation import Observation
@@ -57,6 +57,8 @@ class Planner:
             for stance in self.stance_plan.unplaced
         ]
         self.base_xy = list(robot.base_joints[:2])  # where the base stands picks a chest posture (stance_plan.py)
+        self.chest = [robot.index(j) for j in scenario.robot.chest_joints]
+        self.chest_ramp = ChestRamp(scenario.planner.max_yaw_rate)  # the chest turns no faster than the hands
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
         box = scenario.world.box
         self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
@@ -104,7 +106,8 @@ class Planner:
         if self.schedule.admittance.enabled:
             force_ref = np.tile(self.schedule.force(t + knot_times), (len(self.schedule.hand_names), 1))
         base = obs.q[self.base_xy]
-        chest_ref = self.stance_plan.chest(active.index, positions, base)
+        target = self.stance_plan.chest(active.index, positions, base)
+        chest_ref = self.chest_ramp(target, t, knot_times, obs.q[self.chest])
         # the base's stance only where its cost is on (mpc.weights.stance): nothing to compute each step otherwise
         pull = self.scenario.mpc.weights.stance > 0.0
         stance = self.stance_plan.stance(active.index, positions, base) if pull else None
