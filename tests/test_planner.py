@@ -215,6 +215,17 @@ def test_a_phase_too_short_for_the_bounds_gets_their_least_horizon_in_closed_for
     np.testing.assert_allclose(result.plan.sample(np.array([horizon]))[0][0], goal, atol=1e-9)
 
 
+def test_a_later_plan_whose_end_the_hands_fell_behind_gets_a_horizon_that_meets_the_bounds():
+    goal = START + [1.0, 0.0, 0.0]
+    planner, first = _plan(goal=goal)
+    t = PHASE_END - 0.2  # the hands have not moved, 0.2 s before the plan's end: 1 m needs more than 1 s
+    later = planner.step(t, HandState(START, np.zeros((2, 3)), 0.0), goal, PHASE_END, 0)
+    assert first.success and later.success and later.plan.start == t
+    assert later.plan.horizon > SPEC.min_horizon and later.plan.horizon > PHASE_END - t
+    C, horizon = later.plan.control_points, later.plan.horizon
+    assert np.all(np.abs(C @ difference_matrix(C.shape[1], 1, horizon).T) <= _speed_limits()[:, None] + 1e-6)
+
+
 def test_the_closed_form_horizon_is_the_least_at_which_a_plan_of_its_shapes_meets_the_bounds():
     rng = np.random.default_rng(7)
     speeds = _speed_limits()

@@ -3,7 +3,8 @@ every step by the hands' SQP (hand_sqp.py): `phase_iterations` QPs at a phase ch
 iteration) on every other step.
 
 A phase's first plan's horizon is the phase's remaining time, or, where that is too short for the rate bounds from
-the measured state, the least that is long enough, in closed form (plan_horizon.py); later plans keep its end.
+the measured state, the least that is long enough, in closed form (plan_horizon.py); later plans keep its end
+while its QP is feasible, and take the closed-form horizon when the hands have fallen too far behind to meet it.
 Global guidance: a local SQP linearised at the straight line cannot find its way round an obstacle on it. A
 phase's first plan that does not converge, falls short of a clearance or splits the hands asks for the SQP from
 the straight line moved onto the shortest planar route round obstacles and tables, wide enough for the base
@@ -92,8 +93,7 @@ class HandMPC:
         over a flat-topped obstacle needs its bottom above the top, not a sphere's worth above it."""
         carried = None if carrying_radius is None else (carrying_radius, carrying_drop)
         start_time = time.perf_counter()
-        heading_goal = self.goal_heading(goal, state.heading)
-        ends = (state, goal, heading_goal)
+        ends = (state, goal, self.goal_heading(goal, state.heading))
         previous = self.C if phase == self.phase else None
         fresh = previous is None
         T = self.horizon(ends, phase_end - t) if fresh else max(phase_end, self.t_plan + self.T_plan) - t
@@ -120,6 +120,10 @@ class HandMPC:
             solved, self._route_next = first_plan(
                 self.sqp, self.ground, C, t, T, ends, (iterations, carried, width), fresh and not route_now
             )
+        if not solved.success and not fresh and (longer := self.horizon(ends, T)) > T:
+            # the hands fell behind the plan's end: the rate bounds (the clearance rows' slack is always feasible)
+            # need the closed-form horizon, which later plans then keep
+            solved = self.sqp.solve(C, t, longer, ends, iterations, carried, width)
         outcome = solved.outcome
         if outcome.success and not np.isfinite(solved.C).all():  # NaN / inf never becomes the plan: the last is held
             outcome = Outcome.NON_FINITE
