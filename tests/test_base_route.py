@@ -7,8 +7,8 @@ import numpy as np
 
 from harmony_cli.maths.rotations import rot_z
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.mpc.hand_plan import Obstacle
-from harmony_cli.mpc.plan_seed import Ground, route_around
+from harmony_cli.planning.hand_plan import Obstacle
+from harmony_cli.planning.plan_seed import Ground, route_around
 
 BEHIND = np.array([-0.65, 0.0])  # the footprint's middle from the hands' midpoint, base frame
 HALF_WIDTH = 0.38

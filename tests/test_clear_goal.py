@@ -1,14 +1,14 @@
-"""A free-handed phase's goal is moved out of the obstacles' margins (tasks/clear_goal.py)."""
+"""A free-handed phase's goal is moved out of the obstacles' margins (planning/clear_goal.py)."""
 
 from pathlib import Path
 
 import numpy as np
 
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.mpc.hand_plan import Obstacle
+from harmony_cli.planning.clear_goal import SPARE, STEP, cleared
+from harmony_cli.planning.hand_plan import Obstacle
+from harmony_cli.planning.planner import Planner
 from harmony_cli.scenario import load_scenario, robot_of
-from harmony_cli.tasks.clear_goal import SPARE, STEP, cleared
-from harmony_cli.tasks.two_stage import TaskReferences
 
 PICK_AND_CARRY = Path(__file__).parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml"
 
@@ -58,5 +58,5 @@ def test_an_approach_goal_inside_a_cylinder_s_margin_is_said_before_the_robot_mo
     box = np.asarray(scenario.world.box.position, dtype=float)
     at = box + [0.3 + 0.75, -0.5, 0.0]
     scenario = load_scenario(PICK_AND_CARRY, [f"world.obstacles.cylinder.position=[{at[0]}, {at[1]}, 1.0]"])
-    lines = TaskReferences(robot_of(scenario, PICK_AND_CARRY.parent), scenario).warnings
+    lines = Planner(robot_of(scenario, PICK_AND_CARRY.parent), scenario).warnings
     assert [line.split("'")[0] for line in lines if line.startswith("goal:")] == ["goal: phase approach"]

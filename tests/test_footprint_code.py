@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.mpc.footprint_code import CompiledMargins
-from harmony_cli.mpc.hand_plan import Obstacle
-from harmony_cli.mpc.plan_base import PlannedBase
+from harmony_cli.planning.footprint_code import CompiledMargins
+from harmony_cli.planning.hand_plan import Obstacle
+from harmony_cli.planning.plan_base import PlannedBase
 
 CIRCLES = np.array([[0.3, 0.2, 0.25], [-0.3, 0.2, 0.25], [0.3, -0.2, 0.25], [-0.3, -0.2, 0.25], [0.0, 0.0, 0.3]])
 HANDS = np.array([[0.76, 0.15, 0.93], [0.76, -0.15, 0.93]])

@@ -22,7 +22,7 @@ def _bullet_modules_after_importing(*modules: str) -> str:
 def test_the_whole_body_mpc_and_the_planner_load_without_pybullet():
     assert (
         _bullet_modules_after_importing(
-            "harmony_cli.mpc.wholebody", "harmony_cli.mpc.planner", "harmony_cli.tasks.two_stage"
+            "harmony_cli.mpc.wholebody", "harmony_cli.planning.hand_mpc", "harmony_cli.planning.planner"
         )
         == "[]"
     )

@@ -17,8 +17,8 @@ from harmony_cli.cli import app
 from harmony_cli.experiment.run import run_scenario
 from harmony_cli.maths.shapes import Shape, obstacle_shape
 from harmony_cli.mpc import wholebody
-from harmony_cli.mpc.hand_plan import HandState, Obstacle
-from harmony_cli.mpc.planner import TaskPlanner
+from harmony_cli.planning.hand_mpc import HandMPC
+from harmony_cli.planning.hand_plan import HandState, Obstacle
 from harmony_cli.scenario import ObstacleSpec, PlannerSpec, ScenarioError, WorldSpec, load_scenario
 from harmony_cli.sim.simulation import Simulation
 from harmony_cli.tasks.motion import centre_at, obstacle_predictor
@@ -223,7 +223,7 @@ def test_the_planner_keeps_clear_of_where_a_crossing_obstacle_will_be():
     crossing = lambda times: shape.centre + np.outer(np.asarray(times), [0.0, 1.0, 0.0])  # y = 0 at t = 2.5 s
     plans = {}
     for name, motion in (("parked", None), ("moving", crossing)):
-        planner = TaskPlanner(spec, [Obstacle(shape, 0.2, motion)], np.stack([np.eye(3)] * 2), np.pi / 2)
+        planner = HandMPC(spec, [Obstacle(shape, 0.2, motion)], np.stack([np.eye(3)] * 2), np.pi / 2)
         result = planner.step(0.0, HandState(start, np.zeros((2, 3)), 0.0), goal, 5.0, 0)
         assert result.success
         times = np.linspace(0.0, result.plan.horizon, spec.samples + 1)[1:]

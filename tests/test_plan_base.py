@@ -7,9 +7,9 @@ import numpy as np
 
 from harmony_cli.maths.bezier import bernstein_basis
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.mpc.hand_plan import HandState, Obstacle
-from harmony_cli.mpc.plan_base import PlannedBase
-from harmony_cli.mpc.planner import TaskPlanner
+from harmony_cli.planning.hand_mpc import HandMPC
+from harmony_cli.planning.hand_plan import HandState, Obstacle
+from harmony_cli.planning.plan_base import PlannedBase
 from harmony_cli.scenario import PlannerSpec
 
 SPEC = PlannerSpec()
@@ -88,7 +88,7 @@ def test_screen_is_a_lower_bound_of_the_footprint_margin():
 
 
 def _plan(obstacles: list[Obstacle], base: PlannedBase | None, goal=GOAL):
-    planner = TaskPlanner(SPEC, obstacles, HOME, OFFSET, None, base)
+    planner = HandMPC(SPEC, obstacles, HOME, OFFSET, None, base)
     return planner.step(0.0, HandState(START, np.zeros((2, 3)), 0.0), goal, 6.0, 0)
 
 
@@ -107,7 +107,7 @@ def test_plan_steps_aside_so_the_base_behind_the_hands_clears_a_cylinder_the_han
     assert alone.success and guided.success
     assert _footprint_margins(base, alone).min() < -0.3
     assert _footprint_margins(base, guided).min() > -0.05
-    np.testing.assert_allclose(guided.plan.sample(np.array([6.0]))[0][0], GOAL, atol=1e-9)
+    np.testing.assert_allclose(guided.plan.sample(np.array([guided.plan.horizon]))[0][0], GOAL, atol=1e-9)
 
 
 def test_a_goal_inside_an_obstacle_s_clearance_is_still_reached_keeping_as_far_as_the_goal_is():
@@ -121,22 +121,24 @@ def test_a_goal_inside_an_obstacle_s_clearance_is_still_reached_keeping_as_far_a
     assert cylinder.shape.distance(positions.reshape(-1, 3))[0].min() > inside - 0.006
 
 
-def test_a_hand_starting_inside_two_margins_that_pull_apart_gets_a_plan_that_never_goes_deeper():
+def test_a_hand_starting_inside_two_margins_that_pull_apart_gets_a_plan_out_at_about_its_start_s_depth():
     # hand 0 starts 0.1 m from two cylinders on either side (clearance 0.13): the rows ask it to move +y and -y at
-    # once, which no horizon meets; relaxed, they ask only not to get worse, and the plan slides out along x
+    # once, which no plan meets; each obstacle's slack takes the start's shortfall, and the plan slides out along x
     gap = 0.1
     sides = [_cylinder(START[0, 0], START[0, 1] + sign * (0.3 + gap), HAND_CLEARANCE) for sign in (1, -1)]
     result = _plan(sides, None)
-    assert result.success and result.status.endswith("(clearance relaxed)")
+    assert result.success and result.shortfall > 0.0
     positions, _ = result.plan.sample(np.linspace(0.0, result.plan.horizon, 300))
     nearest = np.minimum(*(side.shape.distance(positions[:, 0])[0] for side in sides))
-    assert nearest.min() > gap - 1e-4  # rows hold at the samples, to first order: between them, microns
+    # the hand's slack for each cylinder is its start's shortfall, which its other samples may use as well: the
+    # plan keeps near the start's depth, not deeper than it by more than a centimetre
+    assert nearest.min() > gap - 0.01
     np.testing.assert_allclose(positions[-1], GOAL, atol=1e-9)
 
 
 def test_plan_view_distances_equal_each_shape_s_own_distance():
     # plan_base's plan-view distance against maths/shapes.py's Shape.distance, box and cylinder, in and outside
-    from harmony_cli.mpc.plan_base import _plan_distance
+    from harmony_cli.planning.plan_base import _plan_distance
 
     rng = np.random.default_rng(3)
     shapes = [

@@ -7,8 +7,9 @@ import pytest
 
 from harmony_cli.maths.bezier import difference_matrix, evaluate
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.mpc.hand_plan import HandState, Obstacle
-from harmony_cli.mpc.planner import TaskPlanner
+from harmony_cli.planning.hand_mpc import HandMPC
+from harmony_cli.planning.hand_plan import HandState, Obstacle
+from harmony_cli.planning.plan_horizon import least_horizon, meets
 from harmony_cli.scenario import PlannerSpec
 
 SPEC = PlannerSpec()
@@ -25,7 +26,7 @@ def _cylinder(y: float) -> Obstacle:
 
 
 def _plan(obstacles=(), goal=GOAL, phase_end=PHASE_END, carrying=None, drop=0.0, ceiling=None):
-    planner = TaskPlanner(SPEC, list(obstacles), HOME, OFFSET, ceiling=ceiling)
+    planner = HandMPC(SPEC, list(obstacles), HOME, OFFSET, ceiling=ceiling)
     args = (HandState(START, np.zeros((2, 3)), 0.0), goal, phase_end, 0, carrying, drop)
     result = planner.step(0.0, *args)
     if planner.route_pending:  # the phase's first plan wants a route: the next step tries it
@@ -110,7 +111,7 @@ def test_carrying_plan_passes_two_cylinders_on_either_side_of_the_straight_path_
         for x, y in ((1.6, 0.1), (2.7, -0.1))
     )
     _, result = _plan([first, second], goal=START + [3.0, 0.0, 0.0], phase_end=7.0, carrying=CARRYING)
-    assert result.success and result.status.endswith("(route)")
+    assert result.success and result.routed
     for obstacle in (first, second):
         for margin in _clearances(result.plan, obstacle):
             assert np.min(margin) >= -1e-2  # the planner's 20 samples are 15 cm apart on this path: it dips between
@@ -144,7 +145,7 @@ def test_a_scene_turned_about_z_gives_the_plan_turned_the_same_whatever_the_robo
     ]
     start, goal = START @ turn.T, GOAL @ turn.T
     d = start[1] - start[0]
-    planner = TaskPlanner(SPEC, turned_obstacles, np.stack([turn, turn]), -np.arctan2(d[1], d[0]))
+    planner = HandMPC(SPEC, turned_obstacles, np.stack([turn, turn]), -np.arctan2(d[1], d[0]))
     turned = planner.step(0.0, HandState(start, np.zeros((2, 3)), 0.0), goal, PHASE_END, 0, CARRYING)
     _, result = _plan(obstacles, carrying=CARRYING)
     assert turned.success and result.success
@@ -187,7 +188,7 @@ def _goal_with_raw_heading(raw: float) -> np.ndarray:
 
 
 def test_goal_heading_unwraps_to_the_heading_nearest_the_current_one():
-    planner = TaskPlanner(SPEC, [], HOME, OFFSET)
+    planner = HandMPC(SPEC, [], HOME, OFFSET)
     assert planner.goal_heading(_goal_with_raw_heading(-3.0), 3.0) == pytest.approx(2 * np.pi - 3.0, abs=1e-12)
     assert planner.goal_heading(_goal_with_raw_heading(3.0), -3.0) == pytest.approx(3.0 - 2 * np.pi, abs=1e-12)
     rng = np.random.default_rng(3)
@@ -198,119 +199,88 @@ def test_goal_heading_unwraps_to_the_heading_nearest_the_current_one():
 
 
 @pytest.mark.parametrize("distance", [2.0, 0.5])
-def test_phase_too_short_for_the_bounds_stretches_the_horizon_and_keeps_the_speed_bounds(distance):
+def test_a_phase_too_short_for_the_bounds_gets_their_least_horizon_in_closed_form_and_keeps_them(distance):
     remaining = 0.3  # < min_horizon: the plan gets min_horizon, then more
     T = SPEC.min_horizon
     # premise: at rest at both ends, covering `distance` in T needs a peak acceleration of at least 4 distance / T^2
     assert 4 * distance / T**2 > SPEC.max_acceleration[0]
     goal = START + [distance, 0.0, 0.0]
-    _, result = _plan(goal=goal, phase_end=remaining)
-    assert result.success and "horizon stretched" in result.status
-    horizon = result.plan.horizon
-    assert horizon > T
-    C = result.plan.control_points
+    planner, result = _plan(goal=goal, phase_end=remaining)
+    assert result.success and result.plan.horizon > T
+    curves = (np.r_[START.ravel(), 0.0], np.zeros(7), np.r_[goal.ravel(), 0.0])
+    rates = (_speed_limits(), np.r_[SPEC.max_acceleration, SPEC.max_acceleration, SPEC.max_yaw_acceleration])
+    assert result.plan.horizon == pytest.approx(least_horizon(*curves, *rates, SPEC.control_points), rel=1e-12)
+    C, horizon = result.plan.control_points, result.plan.horizon
     assert np.all(np.abs(C @ difference_matrix(C.shape[1], 1, horizon).T) <= _speed_limits()[:, None] + 1e-6)
     np.testing.assert_allclose(result.plan.sample(np.array([horizon]))[0][0], goal, atol=1e-9)
 
 
-def _every_stretch_in_turn(planner, C, t, T, ends, carried, width, blocked=None, skip=0):
-    """The search as it was: every stretch in turn, then every stretch relaxed (the first that solves)."""
-    from harmony_cli.mpc.phase_start import STRETCHES
-    from harmony_cli.mpc.plan_seed import fix_ends
+def test_a_later_plan_whose_end_the_hands_fell_behind_gets_a_horizon_that_meets_the_bounds():
+    goal = START + [1.0, 0.0, 0.0]
+    planner, first = _plan(goal=goal)
+    t = PHASE_END - 0.2  # the hands have not moved, 0.2 s before the plan's end: 1 m needs more than 1 s
+    later = planner.step(t, HandState(START, np.zeros((2, 3)), 0.0), goal, PHASE_END, 0)
+    assert first.success and later.success and later.plan.start == t
+    assert later.plan.horizon > SPEC.min_horizon and later.plan.horizon > PHASE_END - t
+    C, horizon = later.plan.control_points, later.plan.horizon
+    assert np.all(np.abs(C @ difference_matrix(C.shape[1], 1, horizon).T) <= _speed_limits()[:, None] + 1e-6)
 
-    for relaxed, stretch in [(r, s) for r in (False, True) for s in STRETCHES]:
-        fix_ends(C, *ends, T * stretch)
-        out = planner._sqp_step(C, t, T * stretch, carried, width, relaxed)
-        if out[0] is not None:
-            break
-    return out, stretch, relaxed
+
+def test_the_closed_form_horizon_is_the_least_at_which_a_plan_of_its_shapes_meets_the_bounds():
+    rng = np.random.default_rng(7)
+    speeds = _speed_limits()
+    accelerations = np.r_[SPEC.max_acceleration, SPEC.max_acceleration, SPEC.max_yaw_acceleration]
+    for _ in range(300):
+        start = rng.normal(size=7)
+        goal, velocity = start + rng.normal(size=7) * rng.uniform(0.0, 3.0), rng.uniform(-1, 1, 7) * speeds
+        curves = (start, velocity, goal, speeds, accelerations, SPEC.control_points)
+        T = least_horizon(*curves)
+        assert meets(T, *curves) and (T == 0.0 or not meets(0.99 * T, *curves))
 
 
 NEAR_START = Obstacle(Shape("cylinder", np.array([0.76, 0.5, 1.0]), 0.0, np.array([0.3, 0.3, 1.0])), CLEARANCE)
 
 
-@pytest.mark.parametrize(
-    "case, expected",
-    [
-        (dict(goal=START + [2.0, 0.0, 0.0], phase_end=0.3), "horizon stretched"),  # the rate bounds
-        (dict(goal=START + [0.5, 0.0, 0.0], phase_end=0.3), "horizon stretched"),
-        (dict(obstacles=[NEAR_START], phase_end=1.0), "clearance relaxed"),  # hand 0 starts 8 cm inside a margin
-        # from a clear start the first two fail, a route is looked for (none: nothing in the way), the ladder resumes
-        (dict(obstacles=[_cylinder(2.0)], goal=START + [2.0, 0.0, 0.0], phase_end=0.3), "horizon stretched"),
-    ],
-)
-def test_the_stretch_search_finds_the_plan_that_trying_every_stretch_in_turn_finds(case, expected, monkeypatch):
-    found = _plan(**case)[1]
-    monkeypatch.setattr("harmony_cli.mpc.planner.first_step", _every_stretch_in_turn)
-    every = _plan(**case)[1]
-    assert expected in found.status and found.status == every.status
-    np.testing.assert_array_equal(found.plan.control_points, every.plan.control_points)
+def test_a_start_inside_an_obstacle_s_margin_gets_a_plan_short_of_it_by_no_more_than_the_start_is():
+    # hand 0 starts 8 cm inside the cylinder's clearance: every QP is feasible (the obstacle's slack), and the plan
+    # goes no deeper than it starts
+    planner, result = _plan([NEAR_START], phase_end=1.0)
+    assert result.success
+    inside = CLEARANCE - NEAR_START.shape.distance(START[:1])[0][0]
+    assert 0.07 < inside < 0.09
+    hands = result.plan.sample(np.linspace(0.0, result.plan.horizon, 200))[0].reshape(-1, 3)
+    assert NEAR_START.shape.distance(hands)[0].min() >= CLEARANCE - inside - 5e-3
 
 
 def test_a_phase_s_first_plan_that_wants_a_route_gets_it_on_the_next_step():
-    planner = TaskPlanner(SPEC, [_cylinder(0.0)], HOME, OFFSET)
+    planner = HandMPC(SPEC, [_cylinder(0.0)], HOME, OFFSET)
     args = (HandState(START, np.zeros((2, 3)), 0.0), GOAL, PHASE_END, 0, None)  # free hands: succeeds, not clean
     first = planner.step(0.0, *args)
-    assert not first.status.endswith("(route)") and planner.route_pending  # one SQP on this step
-    solves, solve = [], planner._solve
-    planner._solve = lambda *a, **k: solves.append(a) or solve(*a, **k)  # type: ignore[method-assign]
+    assert not first.routed and planner.route_pending  # one SQP on this step
+    solves, solve = [], planner.sqp.solve
+    planner.sqp.solve = lambda *a, **k: solves.append(a) or solve(*a, **k)  # type: ignore[method-assign]
     second = planner.step(0.02, *args)
-    assert second.status.endswith("(route)") and not planner.route_pending
+    assert second.routed and not planner.route_pending
     assert len(solves) == 1  # the route's SQP alone on that step, not the plan's own step as well
 
 
-def test_a_blocked_line_from_a_clear_start_gets_at_once_the_route_a_later_step_would(monkeypatch):
-    # carried, the box cannot pass the cylinder on the straight line within the usual horizons: after the line's
-    # first two QPs fail, its route at once, and the same plan as the route the line's other failures lead to
-    planner = TaskPlanner(SPEC, [_cylinder(0.0)], HOME, OFFSET)
-    statuses, sqp_step = [], planner._sqp_step
-    planner._sqp_step = lambda *a, **k: statuses.append((out := sqp_step(*a, **k))[3]) or out  # type: ignore
-    now = planner.step(0.0, HandState(START, np.zeros((2, 3)), 0.0), GOAL, PHASE_END, 0, CARRYING)
-    assert now.status.endswith("(route)") and not planner.route_pending
-    assert sum(status.startswith("qp_failed") for status in statuses) == 2  # the horizon as it is, then x1.5
-    monkeypatch.setattr("harmony_cli.mpc.phase_start.starts_clear", lambda *args: False)  # the line's ladder
-    later = _plan([_cylinder(0.0)], carrying=CARRYING)[1]
-    assert later.status == now.status
-    np.testing.assert_array_equal(later.plan.control_points, now.plan.control_points)
-
-
-def test_a_blocked_line_with_a_plan_to_hold_holds_it_and_takes_on_the_next_step_the_route_it_would_take_at_once():
-    # the same blocked carry as above, but after a phase already planned: that step runs only the line's two failing
-    # QPs and holds the plan it has; the next step runs the route's SQP alone, to the plan a planner with nothing to
-    # hold took at once
-    planner = TaskPlanner(SPEC, [_cylinder(0.0)], HOME, OFFSET)
+def test_a_carry_blocked_on_the_straight_line_takes_the_line_s_plan_short_of_the_cylinder_then_its_route():
+    # carried, the box cannot pass the cylinder on the straight line: that plan falls short of the clearance (the
+    # slack), the next step runs the route's SQP alone, to a plan clear of it
+    planner = HandMPC(SPEC, [_cylinder(0.0)], HOME, OFFSET)
     state = HandState(START, np.zeros((2, 3)), 0.0)
-    before = planner.step(0.0, state, START, PHASE_END, 0, None)  # phase 0: stay where they are
-    statuses, sqp_step = [], planner._sqp_step
-    planner._sqp_step = lambda *a, **k: statuses.append((out := sqp_step(*a, **k))[3]) or out  # type: ignore
-    held = planner.step(0.0, state, GOAL, PHASE_END, 1, CARRYING)
-    assert held.success and "held" in held.status and planner.route_pending
-    assert statuses == ["qp_failed: -1", "qp_failed: -1"]  # the horizon as it is, then x1.5: nothing else
-    np.testing.assert_array_equal(held.plan.control_points, before.plan.control_points)
-    routed = planner.step(0.0, state, GOAL, PHASE_END, 1, CARRYING)
-    assert routed.status.endswith("(route)") and not planner.route_pending
-    assert not any(status.startswith("qp_failed") for status in statuses[2:])  # the route's SQP alone
-    at_once = TaskPlanner(SPEC, [_cylinder(0.0)], HOME, OFFSET).step(0.0, state, GOAL, PHASE_END, 1, CARRYING)
-    assert at_once.status == routed.status
-    np.testing.assert_array_equal(routed.plan.control_points, at_once.plan.control_points)
-
-
-def test_a_line_no_route_helps_tries_each_horizon_once():
-    # the first two horizons fail from a clear start, the route finds nothing in the way: the ladder goes on, not anew
-    planner = TaskPlanner(SPEC, [_cylinder(2.0)], HOME, OFFSET)
-    horizons, sqp_step = [], planner._sqp_step
-    planner._sqp_step = lambda C, t, T, *a: horizons.append(round(T, 9)) or sqp_step(C, t, T, *a)  # type: ignore
-    result = planner.step(0.0, HandState(START, np.zeros((2, 3)), 0.0), START + [2.0, 0.0, 0.0], 0.3, 0, None)
-    assert "horizon stretched" in result.status
-    T = horizons[0]  # the horizon as it is
-    assert horizons.count(T) == horizons.count(1.5 * T) == 1 and 2.25 * T in horizons
+    line = planner.step(0.0, state, GOAL, PHASE_END, 0, CARRYING)
+    assert line.success and line.shortfall > 0.05 and planner.route_pending
+    routed = planner.step(0.0, state, GOAL, PHASE_END, 0, CARRYING)
+    assert routed.routed and routed.shortfall < 5e-3 and not planner.route_pending
+    assert routed.min_clearance >= -5e-3
 
 
 @pytest.mark.parametrize("side", [1.0, -1.0])
 def test_a_phase_with_a_point_to_pass_gets_the_route_through_it_at_once(side):
-    planner = TaskPlanner(SPEC, [_cylinder(0.0)], HOME, OFFSET)
+    planner = HandMPC(SPEC, [_cylinder(0.0)], HOME, OFFSET)
     planner.via = np.array([1.7, 0.8 * side])  # beside the cylinder on the straight path, on either side
     result = planner.step(0.0, HandState(START, np.zeros((2, 3)), 0.0), GOAL, PHASE_END, 0, CARRYING)
-    assert result.status.endswith("(route)") and not planner.route_pending
+    assert result.routed and not planner.route_pending
     middle = result.plan.sample(np.linspace(0.0, PHASE_END, 200))[0].mean(axis=1)
     assert side * middle[np.argmin(np.abs(middle[:, 0] - 1.7)), 1] > 0.3  # passes the cylinder on the via's side

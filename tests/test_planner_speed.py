@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.mpc.hand_plan import HandState, Obstacle
-from harmony_cli.mpc.planner import TaskPlanner
+from harmony_cli.planning.hand_mpc import HandMPC
+from harmony_cli.planning.hand_plan import HandState, Obstacle
 from harmony_cli.scenario import PlannerSpec
 
 SPEC = PlannerSpec()
@@ -21,9 +21,9 @@ CYLINDER = Obstacle(Shape("cylinder", np.array([1.7, -0.2, 1.0]), 0.0, np.array(
 @pytest.mark.parametrize("before, after", [(0.2, None), (None, 0.2)], ids=["carried-then-not", "not-then-carried"])
 def test_a_phase_plans_the_same_whatever_the_planner_solved_before(before, after):
     state = HandState(START, np.zeros((2, 3)), 0.0)
-    used = TaskPlanner(SPEC, [CYLINDER], HOME, np.pi / 2)
+    used = HandMPC(SPEC, [CYLINDER], HOME, np.pi / 2)
     used.step(0.0, state, GOAL, 5.0, 0, before)
-    fresh = TaskPlanner(SPEC, [CYLINDER], HOME, np.pi / 2)
+    fresh = HandMPC(SPEC, [CYLINDER], HOME, np.pi / 2)
     # a new phase starts from the straight line: nothing of the last plan is kept
     a, b = (p.step(0.0, state, GOAL, 5.0, 1, after) for p in (used, fresh))
     assert (a.success, a.status, a.iterations, a.min_clearance) == (b.success, b.status, b.iterations, b.min_clearance)

@@ -44,14 +44,14 @@ def test_the_ceiling_is_above_home_computed_once_then_read_back_from_the_cache(e
 def test_a_carry_written_above_the_ceiling_is_warned_of_and_the_paper_s_is_not():
     from pathlib import Path
 
+    from harmony_cli.planning.planner import Planner
     from harmony_cli.scenario import load_scenario, robot_of
-    from harmony_cli.tasks.two_stage import TaskReferences
 
     path = Path(__file__).parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml"
     high = ["task.phases.carry.hands.left=[6.1,0.154,1.75]", "task.phases.carry.hands.right=[6.1,-0.154,1.75]"]
     for overrides, expected in (([], 0), (high, 1)):
         scenario = load_scenario(path, overrides)
-        references = TaskReferences(robot_of(scenario, path.parent), scenario)
+        references = Planner(robot_of(scenario, path.parent), scenario)
         assert len(references.warnings) == expected
     assert references.warnings[0].startswith("reach: phase carry asks the left hand at z = 1.750 m, above the")
 

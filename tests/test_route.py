@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.mpc import corner_graph, route, visibility
-from harmony_cli.mpc.route import SIDES, footprint, plan_route
+from harmony_cli.planning import corner_graph, route, visibility
+from harmony_cli.planning.route import SIDES, footprint, plan_route
 
 
 def _cylinder(x: float, y: float, radius: float) -> Shape:
@@ -82,8 +82,8 @@ def test_an_outline_asked_for_again_is_the_one_computed_first_and_cannot_be_chan
 
 
 def test_a_route_after_its_outlines_were_warmed_computes_none_of_them_nor_their_geometry_nor_their_graph():
-    from harmony_cli.mpc.hand_plan import Obstacle
-    from harmony_cli.mpc.plan_seed import Ground, route_around, warm_outlines
+    from harmony_cli.planning.hand_plan import Obstacle
+    from harmony_cli.planning.plan_seed import Ground, route_around, warm_outlines
 
     crate = Obstacle(Shape("box", np.array([2.0, 0.1, 0.6]), 0.2, np.array([0.3, 0.4, 0.6])), 0.35)
     table = Shape("box", np.array([4.0, 0.0, 0.5]), 0.0, np.array([0.4, 0.75, 0.5]))
@@ -170,7 +170,7 @@ def test_a_route_s_fit_by_the_matrix_built_with_the_planner_equals_numpy_s_least
     # the planner's control points fitted to a shift at its samples: the pseudo-inverse made once (plan_seed) against
     # np.linalg.lstsq solved each time, as the fit was before
     from harmony_cli.maths.bezier import bernstein_basis
-    from harmony_cli.mpc.plan_seed import fit_matrix
+    from harmony_cli.planning.plan_seed import fit_matrix
 
     M, samples = 11, np.linspace(0.0, 1.0, 21)[1:]
     basis, free = bernstein_basis(M, samples), np.zeros((7, M), dtype=bool)

@@ -24,7 +24,9 @@ from harmony_cli.experiment.faults import MAX_HELD_S, RunFault
 from harmony_cli.experiment.health import TRACKING_LIMIT_M, Health
 from harmony_cli.experiment.run import run_scenario
 from harmony_cli.experiment.stream import StepStream, read_stream
-from harmony_cli.mpc import planner, wholebody
+from harmony_cli.mpc import wholebody
+from harmony_cli.planning import hand_mpc
+from harmony_cli.planning.hand_sqp import HandSQP
 from harmony_cli.robot.presets import resolve_path
 from harmony_cli.scenario import load_scenario, robot_of
 from harmony_cli.sim.simulation import Simulation
@@ -141,7 +143,7 @@ def test_a_nan_solution_or_command_never_reaches_the_simulator_and_the_last_plan
 
 
 def test_a_planner_exception_or_nan_plan_holds_its_last_plan(monkeypatch, tmp_path):
-    real, real_sqp, count = planner.TaskPlanner.step, planner.TaskPlanner._sqp_step, itertools.count()
+    real, real_sqp, count = hand_mpc.HandMPC.step, HandSQP._sqp_step, itertools.count()
     nan_now = [False]
 
     def nan_sqp(self, *args):  # the QP's step: NaN while nan_now
@@ -155,8 +157,8 @@ def test_a_planner_exception_or_nan_plan_holds_its_last_plan(monkeypatch, tmp_pa
         nan_now[0] = n in (12, 13)
         return real(self, *args, **kwargs)
 
-    monkeypatch.setattr(planner.TaskPlanner, "_sqp_step", nan_sqp)
-    monkeypatch.setattr(planner.TaskPlanner, "step", planned)
+    monkeypatch.setattr(HandSQP, "_sqp_step", nan_sqp)
+    monkeypatch.setattr(hand_mpc.HandMPC, "step", planned)
     out = run_scenario(TWIN, ["sim.duration=0.6"], out=tmp_path / "run", progress=False)
     steps = pd.read_csv(out / "steps.csv")
     assert json.loads((out / "summary.json").read_text())["status"] == "completed"

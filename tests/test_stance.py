@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 
 from harmony_cli.maths.shapes import obstacle_shape
+from harmony_cli.planning.planner import Planner
+from harmony_cli.planning.stance import TOLERANCE, turned
 from harmony_cli.scenario import load_scenario, robot_of
 from harmony_cli.tasks.scene_check import _footprint, planar_gap
-from harmony_cli.tasks.stance import TOLERANCE, turned
-from harmony_cli.tasks.two_stage import TaskReferences
 
 PICK_AND_CARRY = Path(__file__).parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml"
 
@@ -19,7 +19,7 @@ PICK_AND_CARRY = Path(__file__).parents[1] / "scenarios" / "paper" / "pick_and_c
 def _stances(*overrides: str):
     scenario = load_scenario(PICK_AND_CARRY, list(overrides))
     robot = robot_of(scenario, PICK_AND_CARRY.parent)
-    return scenario, robot, {s.pivot: s for s in TaskReferences(robot, scenario).stances}
+    return scenario, robot, {s.pivot: s for s in Planner(robot, scenario).stances}
 
 
 def _base_gap(scenario, robot, hands: np.ndarray) -> float:

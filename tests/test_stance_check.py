@@ -1,4 +1,4 @@
-"""The controller's stance search before the robot moves (tasks/stance_check.py): a place behind an obstacle's margin
+"""The controller's stance search before the robot moves (planning/stance_check.py): a place behind an obstacle's margin
 for which no base pose is found ends the run as the controller's failure (`no stance`), not as a refusal by the
 scene check, which refuses on proofs only; a blocked stance with a pose found, or one blocked only by where a
 moving obstacle starts, is searched and found."""
@@ -11,11 +11,11 @@ from pathlib import Path
 from typer.testing import CliRunner
 
 from harmony_cli.cli import app
+from harmony_cli.planning import stance_check
+from harmony_cli.planning.stance_check import SEARCH, home_hands, unposed, written_stances
 from harmony_cli.scenario import load_scenario, robot_of
 from harmony_cli.study.table import NO_STANCE, outcome
-from harmony_cli.tasks import stance_check
 from harmony_cli.tasks.scene_check import SceneCheck
-from harmony_cli.tasks.stance_check import SEARCH, home_hands, unposed, written_stances
 
 PAPER = Path(__file__).resolve().parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml"
 # the cylinder just in front of the drop table: no room for the base, even inside the cylinder's margin

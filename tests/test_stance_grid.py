@@ -1,4 +1,4 @@
-"""The stance search (tasks/stance_pose.py) against a brute-force grid of base poses on a small scene: every pose of
+"""The stance search (planning/stance_pose.py) against a brute-force grid of base poses on a small scene: every pose of
 the grid is checked with plain plan-view geometry (shapely) and Pinocchio's inverse kinematics, independent of the
 search's CasADi model."""
 
@@ -12,9 +12,9 @@ from shapely.geometry import box
 
 from harmony_cli.maths.rotations import rot_z
 from harmony_cli.mpc.clearance import SOFTMIN
+from harmony_cli.planning.stance_pose import POSITION_TOL, ROTATION_TOL, stance_poses
 from harmony_cli.robot.reach import arm_joints
 from harmony_cli.scenario import load_scenario, robot_of
-from harmony_cli.tasks.stance_pose import POSITION_TOL, ROTATION_TOL, stance_poses
 
 PAPER = Path(__file__).parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml"
 # the cylinder north-west of the drop table's near edge: the base cannot stand behind the place as written, and

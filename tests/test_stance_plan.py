@@ -1,4 +1,4 @@
-"""What a blocked stance changes (tasks/stance_plan.py): the chest posture and the base's stance, which pose they
+"""What a blocked stance changes (planning/stance_plan.py): the chest posture and the base's stance, which pose they
 take and where, checked against Pinocchio's kinematics and plain geometry; which phases get one; and the margins
 the whole-body MPC lowers where no pose keeps them."""
 
@@ -9,10 +9,18 @@ import pinocchio as pin
 import pytest
 
 from harmony_cli.mpc.clearance import FLOOR
+from harmony_cli.planning.planner import Planner
+from harmony_cli.planning.stance_plan import (
+    BLEND,
+    NEAR,
+    RELIEF_SPARE,
+    STANCE_BLEND,
+    ChestRamp,
+    Posture,
+    pivot_targets,
+)
+from harmony_cli.planning.stance_pose import POSITION_TOL, stance_poses
 from harmony_cli.scenario import load_scenario, robot_of
-from harmony_cli.tasks.stance_plan import BLEND, NEAR, RELIEF_SPARE, STANCE_BLEND, Posture, pivot_targets
-from harmony_cli.tasks.stance_pose import POSITION_TOL, stance_poses
-from harmony_cli.tasks.two_stage import TaskReferences
 
 PAPER = Path(__file__).parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml"
 BLOCKED_PLACE = ["world.obstacles.cylinder.position=[4.5,0.2,1.0]"]
@@ -24,7 +32,7 @@ EITHER_SIDE = ["world.obstacles.cylinder.position=[4.13,0.08,1.0]"]
 def _references(*overrides):
     scenario = load_scenario(PAPER, list(overrides))
     robot = robot_of(scenario, PAPER.parent)
-    return scenario, robot, TaskReferences(robot, scenario)
+    return scenario, robot, Planner(robot, scenario)
 
 
 def _hands(middle):
@@ -98,3 +106,18 @@ def test_a_place_reached_only_inside_the_cylinder_s_margin_lowers_that_margin_in
     assert relief.shape == (1,) and RELIEF_SPARE < relief[0] <= give
     scenario, _, references = _references(*BLOCKED_PLACE)  # a pose that keeps the margin: nothing lowered
     assert references.stance_plan.reliefs == {}
+
+
+def test_a_chest_posture_that_ends_turns_back_no_faster_than_the_rate():
+    ramp, knots, dt = ChestRamp(0.5), np.linspace(0.0, 5.0, 26), 0.02
+    posture = np.full((1, knots.size), 1.4)
+    assert ramp(None, 7.0, knots, np.zeros(1)) is None  # no posture yet: straight, nothing to ramp
+    first = ramp(posture, 7.0, knots, np.full(1, 0.1))
+    np.testing.assert_allclose(first[0], np.minimum(0.1 + 0.5 * knots, 1.4))  # from the measured chest, at the rate
+    ramp = ChestRamp(0.5)
+    t, refs = 0.0, []
+    while (ref := ramp(posture if t < 3.0 else None, t, knots, np.zeros(1))) is not None:
+        refs.append(ref[0, 0])
+        t += dt
+    assert max(refs) == pytest.approx(1.4) and np.abs(np.diff(refs)).max() <= 0.5 * dt + 1e-12
+    assert t == pytest.approx(3.0 + 1.4 / 0.5, abs=2 * dt)  # back to straight, then None again

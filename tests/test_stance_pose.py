@@ -1,4 +1,4 @@
-"""Where the base stands when the written stance is blocked (tasks/stance_pose.py), checked with Pinocchio's
+"""Where the base stands when the written stance is blocked (planning/stance_pose.py), checked with Pinocchio's
 kinematics, plain plan-view geometry and PyBullet's collision shapes."""
 
 from pathlib import Path
@@ -9,10 +9,10 @@ import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
 from harmony_cli.mpc.clearance import FLOOR
+from harmony_cli.planning.planner import Planner
+from harmony_cli.planning.stance_pose import POSITION_TOL, stance_pose
 from harmony_cli.scenario import load_scenario, robot_of
 from harmony_cli.sim.world import World
-from harmony_cli.tasks.stance_pose import POSITION_TOL, stance_pose
-from harmony_cli.tasks.two_stage import TaskReferences
 
 PAPER = Path(__file__).parents[1] / "scenarios" / "paper" / "pick_and_carry.yaml"
 # the cylinder just west of the drop table: the base, behind the hands as written for the place, would be in it
@@ -96,7 +96,7 @@ def test_a_place_with_no_room_even_inside_the_margin_gets_no_pose_no_route_point
     scenario = load_scenario(PAPER, NO_ROOM)
     robot = robot_of(scenario, PAPER.parent)
     assert stance_pose(scenario, robot, *_place(scenario, robot)) is None
-    references = TaskReferences(robot, scenario)
+    references = Planner(robot, scenario)
     assert references.vias == {}
     assert [w for w in references.warnings if w.startswith("stance: no base pose found")] == [
         "stance: no base pose found, clear of the scene (obstacles' margins down to 0.05 m; the trunk out from under "
@@ -133,9 +133,9 @@ def test_pybullet_sees_the_waist_inside_the_table_top_at_the_trunkless_pose_and_
 
 def test_only_a_blocked_stance_routes_its_first_phase_through_a_pose_that_clears():
     scenario = load_scenario(PAPER)
-    assert TaskReferences(robot_of(scenario, PAPER.parent), scenario).vias == {}
+    assert Planner(robot_of(scenario, PAPER.parent), scenario).vias == {}
     scenario = load_scenario(PAPER, BLOCKED)
-    references = TaskReferences(robot_of(scenario, PAPER.parent), scenario)
+    references = Planner(robot_of(scenario, PAPER.parent), scenario)
     assert [scenario.task.phases[i].name for i in references.vias] == ["carry"]
     assert np.linalg.norm(references.vias[5] - [4.5, 0.2]) > 0.6 + 0.3  # outside the cylinder and its margin
 
@@ -144,12 +144,12 @@ def test_a_blocked_grip_reached_through_an_approach_phase_gets_no_route_point():
     # the stance is found for the phases at the box; the approach ends 0.5 m before it, where that pose is not the
     # point to pass (routed through it, none of the study's blocked grips gained)
     scenario = load_scenario(PAPER, ["world.obstacles.cylinder.position=[3.2,1.6,1.0]"])
-    references = TaskReferences(robot_of(scenario, PAPER.parent), scenario)
+    references = Planner(robot_of(scenario, PAPER.parent), scenario)
     assert references.stances[0].warning() is not None and references.vias == {}
 
 
 def test_the_pose_found_faces_the_pads_across_the_targets_whatever_the_robot_s_start_yaw():
-    from harmony_cli.tasks.stance_check import home_hands
+    from harmony_cli.planning.stance_check import home_hands
 
     for yaw_deg in (0.0, 40.0):
         scenario = load_scenario(PAPER, [*BLOCKED, f"robot.base_pose=[0.0,0.0,{yaw_deg}]"])

@@ -11,7 +11,7 @@ from harmony_cli.mpc.knot_derivatives import KnotConstraints, KnotDerivatives
 from harmony_cli.mpc.knot_params import hand_rows
 from harmony_cli.mpc.native_oracle import native_oracle
 from harmony_cli.mpc.nlp import NlpSolver, SymbolicNlpSolver
-from harmony_cli.mpc.registry import make_solver
+from harmony_cli.mpc.solvers import make_solver
 from harmony_cli.mpc.transcription import TraditionalTranscription, make_transcription
 from harmony_cli.mpc.wholebody import WholeBodyMPC
 from harmony_cli.mpc.wholebody_problem import build_problem

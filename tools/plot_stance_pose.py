@@ -2,7 +2,7 @@
 
     python tools/plot_stance_pose.py SCENARIO [--set FIELD=VALUE ...] --out FIGURE.png
 
-For each blocked stance of the scenario (a task_warning): the pose tasks/stance_pose.py finds for the phases at
+For each blocked stance of the scenario (a task_warning): the pose planning/stance_pose.py finds for the phases at
 its pivot, once as the scenario says and once with `robot.trunk=[]` (the footprint alone kept clear, as before
 issue 14's trunk), drawn over the tables' tops, their legs and the obstacles with their margins: the footprint's
 circles, the trunk's circles at a table's height and the hands' targets.
@@ -22,10 +22,10 @@ import numpy as np  # noqa: E402
 from matplotlib.patches import Circle, Rectangle  # noqa: E402
 
 from harmony_cli.maths.shapes import table_legs  # noqa: E402
+from harmony_cli.planning.planner import Planner  # noqa: E402
+from harmony_cli.planning.stance_plan import pivot_targets  # noqa: E402
+from harmony_cli.planning.stance_pose import stance_pose  # noqa: E402
 from harmony_cli.scenario import ScenarioError, load_scenario, robot_of  # noqa: E402
-from harmony_cli.tasks.stance_plan import pivot_targets  # noqa: E402
-from harmony_cli.tasks.stance_pose import stance_pose  # noqa: E402
-from harmony_cli.tasks.two_stage import TaskReferences  # noqa: E402
 
 
 def _rectangle(centre, half, yaw_deg, **style) -> Rectangle:
@@ -68,7 +68,7 @@ def main(argv: list[str] | None = None) -> None:
         print(f"error: {err}", file=sys.stderr)
         sys.exit(2)
     robot = robot_of(scenario, args.scenario.parent)
-    references = TaskReferences(robot, scenario)
+    references = Planner(robot, scenario)
     fig, ax = plt.subplots(figsize=(7, 6))
     _scene(ax, scenario)
     blocked = [s for s in references.stances if s.warning() is not None]

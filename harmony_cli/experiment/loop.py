@@ -55,7 +55,7 @@ def run_loop(
             sensed = time.perf_counter()
             obs = sim.observe()  # the MPC always starts from the measured state
             start = time.perf_counter()
-            targets = references(t, obs, mpc.knot_times)
+            targets = references.plan(t, obs, mpc.knot_times)
             if predict is not None:
                 mpc.set_obstacle_centres(predict(t + mpc.knot_times))
             mpc.set_reliefs(targets.reliefs)

@@ -25,6 +25,8 @@ from harmony_cli.experiment.run_dir import machine_meta
 from harmony_cli.experiment.stream import STREAM, StepStream
 from harmony_cli.experiment.task_watch import TaskWatch
 from harmony_cli.mpc.wholebody import WholeBodyMPC
+from harmony_cli.planning.planner import Planner
+from harmony_cli.planning.stance_check import unposed
 from harmony_cli.robot.model import Robot
 from harmony_cli.scenario import Scenario, robot_of, robot_warnings
 from harmony_cli.sim.simulation import Simulation
@@ -32,9 +34,7 @@ from harmony_cli.sim.video import VideoRecorder, frame_every
 from harmony_cli.tasks.motion import Predictor, obstacle_predictor
 from harmony_cli.tasks.reference import HandReference, TrajectoryReferences
 from harmony_cli.tasks.scene_check import SceneCheck
-from harmony_cli.tasks.stance_check import unposed
 from harmony_cli.tasks.targets import References
-from harmony_cli.tasks.two_stage import TaskReferences
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -81,7 +81,7 @@ def build(scenario: Scenario, scenario_dir: Path) -> Built:
         sim.close()
         raise
     if scenario.task is not None:
-        references = TaskReferences(robot, scenario)
+        references = Planner(robot, scenario)
         return Built(robot, mpc, sim, references, TaskWatch(references), obstacle_predictor(scenario.world.obstacles))
     if scenario.reference is None:  # validation leaves exactly one of task / reference
         raise ValueError(f"{scenario.name}: neither a task nor a reference")
@@ -117,9 +117,9 @@ def _notes(scenario: Scenario, scenario_dir: Path, built: Built, progress: bool)
 
 
 def task_warnings(built: Built) -> list[str]:
-    """A line each: written grip and place stances that leave the base inside a margin (tasks/stance.py), hand
+    """A line each: written grip and place stances that leave the base inside a margin (planning/stance.py), hand
     targets above what the arms reach together (robot/reach.py), free-handed goals inside a margin (clear_goal.py)."""
-    if not isinstance(built.references, TaskReferences):
+    if not isinstance(built.references, Planner):
         return []
     stances = [w for stance in built.references.stances if (w := stance.warning()) is not None]
     return stances + built.references.warnings
@@ -128,7 +128,7 @@ def task_warnings(built: Built) -> list[str]:
 def solver_paths(built: Built) -> dict[str, str]:
     """The code path each MPC's solver takes (meta.json): a run's speed depends on it."""
     paths = {"whole_body_mpc": built.mpc.solver.path}
-    if isinstance(built.references, TaskReferences):
+    if isinstance(built.references, Planner):
         paths["planner"] = built.references.planner.path
     return paths
 

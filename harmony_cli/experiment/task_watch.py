@@ -7,16 +7,16 @@ from __future__ import annotations
 import numpy as np
 
 from harmony_cli.maths.rotations import grip_shear, off_square_deg, pad_axis
+from harmony_cli.planning.planner import Planner
 from harmony_cli.robot.observation import Observation
 from harmony_cli.sim.simulation import Truth
 from harmony_cli.sim.wrench import rotation_matrices
-from harmony_cli.tasks.two_stage import TaskReferences
 
 DROP_AFTER = 0.1  # [s] a held box without any contact with the robot for this long: dropped
 
 
 class TaskWatch:
-    def __init__(self, references: TaskReferences):
+    def __init__(self, references: Planner):
         self.references = references
         self.dropped_at: float | None = None
         self.loose_since: float | None = None

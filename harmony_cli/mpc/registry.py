@@ -6,8 +6,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Literal, get_args
 
 if TYPE_CHECKING:  # casadi and the solvers load only when a solver is built (validation stays light)
-    from harmony_cli.mpc.problem import Problem, Solver
-    from harmony_cli.scenario.models import SolverSpec
+    pass
 
 HARMONY_SOLVERS = {
     "gauss_newton": "Gauss-Newton SQP to convergence, one QP per iteration",
@@ -63,25 +62,6 @@ def qp_solver_for(qp: str, n_vars: int, real_time_iteration: bool) -> str:
     if n_vars <= 300:
         return "daqp"
     return "osqp" if real_time_iteration else "proxqp"
-
-
-def make_solver(problem: Problem, spec: SolverSpec) -> Solver:
-    """The solver of a scenario's `solver` section. An NLP plugin that rejects harmony's structured oracles
-    gets CasADi's AD on the whole problem instead (slower; its `path` says so and why)."""
-    from harmony_cli.mpc.gauss_newton import GaussNewtonSolver
-    from harmony_cli.mpc.nlp import NlpSolver, SymbolicNlpSolver
-
-    if spec.name in HARMONY_SOLVERS:
-        rti = spec.name == "rti"
-        return GaussNewtonSolver(
-            problem, qp_solver_for(spec.qp, problem.n_vars, rti), 1 if rti else spec.max_iter, spec.tol, spec.name
-        )
-    if spec.name not in available_nlp_plugins():
-        raise SolverUnavailable(unavailable_message(spec.name))
-    try:
-        return NlpSolver(problem, spec.name, dict(spec.options), spec.hessian)
-    except SolverUnavailable as exc:
-        return SymbolicNlpSolver(problem, spec.name, dict(spec.options), reason=str(exc))
 
 
 def options_problem(name: str, options: dict) -> str | None:

@@ -11,7 +11,7 @@ import numpy as np
 from harmony_cli.maths.filters import LowPass
 from harmony_cli.mpc.clearance import scenario_clearances
 from harmony_cli.mpc.problem import NoPlanToHold, SolveResult
-from harmony_cli.mpc.registry import make_solver
+from harmony_cli.mpc.solvers import make_solver
 from harmony_cli.mpc.structures import structure_for
 from harmony_cli.mpc.wholebody_problem import joint_limits
 from harmony_cli.robot.model import Robot

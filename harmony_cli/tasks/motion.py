@@ -6,13 +6,9 @@ known from the scenario), sampled at their own knot / sample times."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
-
-from harmony_cli.maths.shapes import obstacle_shape
-from harmony_cli.mpc.hand_plan import Obstacle
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -44,13 +40,3 @@ def obstacle_predictor(obstacles: list[ObstacleSpec]) -> Predictor | None:
     if not any(o.motion is not None for o in obstacles):
         return None
     return lambda times: np.stack([centre_at(o, times) for o in obstacles])
-
-
-def planned_obstacles(obstacles: list[ObstacleSpec], grow: float) -> list[Obstacle]:
-    """The scenario's `obstacles` as the planner and the base's footprint keep clear of them: each shape where it
-    starts, its margin plus `grow` as the clearance (the hands': their radius; the footprint's: 0), its true motion
-    as the predictor (None: it stands)."""
-    return [
-        Obstacle(obstacle_shape(o), o.margin + grow, partial(centre_at, o) if o.motion is not None else None)
-        for o in obstacles
-    ]

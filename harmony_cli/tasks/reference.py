@@ -57,6 +57,6 @@ class TrajectoryReferences:
     def __init__(self, reference: HandReference):
         self.reference = reference
 
-    def __call__(self, t: float, obs: Observation, knot_times: np.ndarray) -> HandTargets:
+    def plan(self, t: float, obs: Observation, knot_times: np.ndarray) -> HandTargets:
         positions, rotations = self.reference.poses(t + knot_times)
         return HandTargets(positions, rotations, positions[0])

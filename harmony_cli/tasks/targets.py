@@ -23,7 +23,7 @@ class HandTargets:
 
 
 class References(Protocol):
-    def __call__(self, t: float, obs: Observation, knot_times: np.ndarray) -> HandTargets: ...
+    def plan(self, t: float, obs: Observation, knot_times: np.ndarray) -> HandTargets: ...
 
     @property
     def delay(self) -> float:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from harmony_cli.mpc.hand_plan import Obstacle, Solved
+from harmony_cli.planning.hand_plan import SHORT, Obstacle, Solved
 
 BETWEEN = np.array([0.25, 0.5, 0.75])  # fractions of the way from hand 0 to hand 1 checked for an obstacle
 CLEARANCE_SLACK = 5e-3  # [m] predicted clearance shortfall tolerated in a phase's first plan
@@ -23,7 +23,8 @@ def keeps_shape(solved: Solved, basis: np.ndarray, obstacles: list[Obstacle]) ->
     for obstacle in obstacles:
         if obstacle.motion is None and obstacle.shape.distance(between)[0].min() < 0.0:
             return False
-    return solved.clearance >= -CLEARANCE_SLACK and solved.base_clearance >= -BASE_SLACK
+    clear = solved.clearance >= -CLEARANCE_SLACK and solved.shortfall <= SHORT
+    return clear and solved.base_clearance >= -BASE_SLACK
 
 
 def starts_clear(obstacles: list[Obstacle], hands: np.ndarray, t: float, reliefs: np.ndarray, carried) -> bool:
@@ -32,24 +33,19 @@ def starts_clear(obstacles: list[Obstacle], hands: np.ndarray, t: float, reliefs
     return bool((clearance_margins(obstacles, hands, t, carried) >= -reliefs).all())
 
 
-def converged(solved: Solved) -> bool:
-    """Whether the SQP converged, whatever its status says besides (a stretched horizon, a route)."""
-    return solved.status.startswith("converged")
-
-
 def is_clean(solved: Solved, basis: np.ndarray, obstacles: list[Obstacle]) -> bool:
-    """A phase's first plan that needs no second look: converged (a stretched horizon is the rate bounds', which
-    no route changes), clear (hands and base), hands on one side."""
-    return converged(solved) and keeps_shape(solved, basis, obstacles)
+    """A phase's first plan that needs no second look: converged, clear (hands and base, no shortfall), hands on
+    one side."""
+    return solved.converged and keeps_shape(solved, basis, obstacles)
 
 
 def rank(solved: Solved, basis: np.ndarray, obstacles: list[Obstacle]) -> tuple:
-    """What makes one plan better than another: success, shape kept, less stretch, converged."""
+    """What makes one plan better than another: success, shape kept, a smaller shortfall, converged."""
     return (
         solved.success,
         solved.success and keeps_shape(solved, basis, obstacles),
-        -solved.stretch,
-        converged(solved),
+        -round(solved.shortfall, 3),
+        solved.converged,
     )
 
 

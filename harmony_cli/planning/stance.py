@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harmony_cli.mpc.plan_base import PlannedBase
+from harmony_cli.planning.plan_base import PlannedBase
 from harmony_cli.scenario import Scenario
 from harmony_cli.scenario.task import RelativeTarget
 from harmony_cli.tasks.as_written import target_position

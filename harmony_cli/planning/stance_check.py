@@ -11,14 +11,13 @@ import numpy as np
 
 from harmony_cli.maths.shapes import table_legs
 from harmony_cli.mpc.clearance import FLOOR
-from harmony_cli.mpc.hand_plan import Obstacle
-from harmony_cli.mpc.plan_base import PlannedBase
+from harmony_cli.planning.hand_plan import Obstacle, planned_obstacles
+from harmony_cli.planning.plan_base import PlannedBase
+from harmony_cli.planning.stance import Stance, stances
+from harmony_cli.planning.stance_plan import pivot_targets
+from harmony_cli.planning.stance_pose import STARTS, stance_poses
 from harmony_cli.robot.model import Robot
 from harmony_cli.scenario import Scenario
-from harmony_cli.tasks.motion import planned_obstacles
-from harmony_cli.tasks.stance import Stance, stances
-from harmony_cli.tasks.stance_plan import pivot_targets
-from harmony_cli.tasks.stance_pose import STARTS, stance_poses
 
 # the planning search's starts, then every 22.5 deg between them and nearer to and farther from the targets
 SEARCH = STARTS + tuple(

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from harmony_cli.mpc.hand_plan import Obstacle
+from harmony_cli.planning.hand_plan import Obstacle
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from harmony_cli.mpc.hand_plan import Obstacle
+from harmony_cli.planning.hand_plan import Obstacle
 
 STEP = 0.02  # [m] shifts tried: STEP, 2 STEP, ... up to FARTHEST, in DIRECTIONS directions about the vertical
 FARTHEST = 1.0

@@ -9,7 +9,7 @@ import casadi as cs
 import numpy as np
 
 from harmony_cli.mpc.codegen import Buffered, Compiling, code_path
-from harmony_cli.mpc.plan_base import PlannedBase
+from harmony_cli.planning.plan_base import PlannedBase
 
 
 def _distance(dx, dy, body, round_: bool):

@@ -10,28 +10,27 @@ import numpy as np
 
 from harmony_cli.maths.rotations import heading_of
 from harmony_cli.maths.shapes import table_shape, table_top_pose
-from harmony_cli.mpc.hand_plan import HandState, PlannerResult
-from harmony_cli.mpc.plan_base import PlannedBase
-from harmony_cli.mpc.plan_seed import Ground
-from harmony_cli.mpc.planner import TaskPlanner
+from harmony_cli.planning.clear_goal import FARTHEST, cleared
+from harmony_cli.planning.hand_mpc import HandMPC
+from harmony_cli.planning.hand_plan import HandState, Outcome, PlannerResult, planned_obstacles
+from harmony_cli.planning.plan_base import PlannedBase
+from harmony_cli.planning.plan_seed import Ground
+from harmony_cli.planning.stance_check import base_bodies, home_hands, no_pose, written_stances
+from harmony_cli.planning.stance_plan import NEAR, ChestRamp, stance_plan
+from harmony_cli.planning.stance_pose import STARTS
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.observation import Observation
 from harmony_cli.robot.reach import hand_ceiling
 from harmony_cli.tasks.as_written import target_position
-from harmony_cli.tasks.clear_goal import FARTHEST, cleared
-from harmony_cli.tasks.motion import planned_obstacles
 from harmony_cli.tasks.passage import narrowest_width
 from harmony_cli.tasks.schedule import ActivePhase, Schedule
-from harmony_cli.tasks.stance_check import base_bodies, home_hands, no_pose, written_stances
-from harmony_cli.tasks.stance_plan import NEAR, stance_plan
-from harmony_cli.tasks.stance_pose import STARTS
 from harmony_cli.tasks.targets import HandTargets
 
 if TYPE_CHECKING:
     from harmony_cli.scenario.models import Scenario
 
 
-class TaskReferences:
+class Planner:
     """Re-plans every `planner.period` control steps and samples the plan at t + knot times."""
 
     def __init__(self, robot: Robot, scenario: Scenario):
@@ -46,7 +45,7 @@ class TaskReferences:
         width = _grip_width(scenario, robot, hands)
         self.ceiling = hand_ceiling(robot, width)
         self.warnings = _above(scenario, robot.hand_names, self.ceiling, width)
-        self.planner = TaskPlanner(
+        self.planner = HandMPC(
             scenario.planner, obstacles, self.home_rotations, offset, _ground(scenario, base), base, self.ceiling
         )
         self.warnings += self._goals_inside(robot.hand_names)
@@ -58,6 +57,8 @@ class TaskReferences:
             for stance in self.stance_plan.unplaced
         ]
         self.base_xy = list(robot.base_joints[:2])  # where the base stands picks a chest posture (stance_plan.py)
+        self.chest = [robot.index(j) for j in scenario.robot.chest_joints]
+        self.chest_ramp = ChestRamp(scenario.planner.max_yaw_rate)  # the chest turns no faster than the hands
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
         box = scenario.world.box
         self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
@@ -67,7 +68,7 @@ class TaskReferences:
         self.result: PlannerResult | None = None
         self.step_count = 0
 
-    def __call__(self, t: float, obs: Observation, knot_times: np.ndarray) -> HandTargets:
+    def plan(self, t: float, obs: Observation, knot_times: np.ndarray) -> HandTargets:
         if self.phase is not None:  # a phase whose goal is not reached waits (schedule.py)
             error = float(np.linalg.norm(obs.hand_positions - self.goal, axis=1).max())
             self.schedule.wait(t, self.scenario.sim.control_dt, error)
@@ -105,7 +106,8 @@ class TaskReferences:
         if self.schedule.admittance.enabled:
             force_ref = np.tile(self.schedule.force(t + knot_times), (len(self.schedule.hand_names), 1))
         base = obs.q[self.base_xy]
-        chest_ref = self.stance_plan.chest(active.index, positions, base)
+        target = self.stance_plan.chest(active.index, positions, base)
+        chest_ref = self.chest_ramp(target, t, knot_times, obs.q[self.chest])
         # the base's stance only where its cost is on (mpc.weights.stance): nothing to compute each step otherwise
         pull = self.scenario.mpc.weights.stance > 0.0
         stance = self.stance_plan.stance(active.index, positions, base) if pull else None
@@ -154,8 +156,9 @@ class TaskReferences:
             if self.result is None:
                 raise
             message = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
-            status = f"exception {type(exc).__name__}: {message}"[:200]
-            return PlannerResult(self.result.plan, False, status, 0, time.perf_counter() - start, float("nan"))
+            detail = f"{type(exc).__name__}: {message}"[:200]
+            elapsed = time.perf_counter() - start
+            return PlannerResult(self.result.plan, Outcome.ERROR, 0, elapsed, float("nan"), detail=detail)
 
     def _plan(self, t: float, obs: Observation, active: ActivePhase, holding: bool) -> PlannerResult:
         heading = heading_of(obs.hand_rotations, self.home_rotations)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harmony_cli.mpc.visibility import Polygon, by_identity, entering, stack_of, tangent
+from harmony_cli.planning.visibility import Polygon, by_identity, entering, stack_of, tangent
 
 ENDS = 2  # a route's graph numbers its two ends first, then the corners
 

@@ -20,8 +20,8 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.mpc.corner_graph import corner_graph
-from harmony_cli.mpc.visibility import OUTSET, Polygon, inside, polygon_of, tangent, visible
+from harmony_cli.planning.corner_graph import corner_graph
+from harmony_cli.planning.visibility import OUTSET, Polygon, inside, polygon_of, tangent, visible
 
 SIDES = 16  # polygon sides of a grown round shape or corner
 

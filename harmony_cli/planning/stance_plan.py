@@ -24,11 +24,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from harmony_cli.planning.stance import Stance
+from harmony_cli.planning.stance_pose import stance_poses
 from harmony_cli.robot.model import Robot
 from harmony_cli.scenario import Scenario
 from harmony_cli.tasks.as_written import target_position
-from harmony_cli.tasks.stance import Stance
-from harmony_cli.tasks.stance_pose import stance_poses
 
 NEAR = 0.2  # [m] a phase works at its group's pivot when its hands' midpoint is this near it (plan view)
 BLEND = 1.0  # [m] the chest posture blends in over this distance of the planned hands' midpoint to NEAR
@@ -93,6 +93,33 @@ class StancePlan:
         """The base's stance (4, K) in `phase` (Posture.stance); None outside a blocked group."""
         posture = self._posture(phase)
         return None if posture is None else posture.stance(hands, base)
+
+
+class ChestRamp:
+    """The chest reference in time: it never steps. A posture that starts or ends (a blocked group's phases begin
+    or end, the pose nearest the base changes) moves the reference from where it was at most `rate` [rad/s] per
+    second of the whole-body MPC's knot times, so a chest turned at a blocked stance turns back at a pace the hands
+    can hold a box through, not in one control step. None until a posture is first asked for (straight: nothing
+    to ramp)."""
+
+    def __init__(self, rate: float):
+        self.rate = rate
+        self._last: tuple[float, np.ndarray] | None = None  # when the last reference was asked for, its first knot
+
+    def __call__(self, target: np.ndarray | None, t: float, knot_times: np.ndarray, measured: np.ndarray):
+        """The reference (chest joints, K) at t + `knot_times` towards `target` (None: straight), within `rate`
+        of the last reference's first knot (the `measured` chest angles the first time) over the time since."""
+        if target is None and self._last is None:
+            return None
+        since, now = (t, measured.astype(float)) if self._last is None else self._last
+        goal = np.zeros((now.size, knot_times.size)) if target is None else target
+        reach = self.rate * (knot_times - knot_times[0] + t - since)
+        ramped = now[:, None] + np.clip(goal - now[:, None], -reach, reach)
+        if target is None and not ramped.any():
+            self._last = None  # back to straight: as if no posture had been asked for
+            return None
+        self._last = (t, ramped[:, 0])
+        return ramped
 
 
 def stance_plan(scenario: Scenario, robot: Robot, found: list[Stance], heading_offset: float) -> StancePlan:

@@ -1,0 +1,157 @@
+"""Task-space planner (MPC-T): both hands' paths from their measured state to the phase goal at rest, re-planned
+every step by the hands' SQP (hand_sqp.py): `phase_iterations` QPs at a phase change, `iterations` (1: real-time
+iteration) on every other step.
+
+A phase's first plan's horizon is the phase's remaining time, or, where that is too short for the rate bounds from
+the measured state, the least that is long enough, in closed form (plan_horizon.py); later plans keep its end
+while its QP is feasible, and take the closed-form horizon when the hands have fallen too far behind to meet it.
+Global guidance: a local SQP linearised at the straight line cannot find its way round an obstacle on it. A
+phase's first plan that does not converge, falls short of a clearance or splits the hands asks for the SQP from
+the straight line moved onto the shortest planar route round obstacles and tables, wide enough for the base
+(plan_seed, route.py), on the next step, instead of that plan's own step. A phase with a point to pass (`via`: a
+base pose that works at a blocked stance, planning/stance_pose.py) gets the route through it at once (phase_start.py).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from harmony_cli.maths.bezier import shift_matrix
+from harmony_cli.mpc.problem import NoPlanToHold
+from harmony_cli.planning.hand_plan import Ends, HandState, Obstacle, Outcome, Plan, PlannerResult
+from harmony_cli.planning.hand_sqp import HandSQP
+from harmony_cli.planning.phase_start import first_plan, on_route_plan
+from harmony_cli.planning.plan_base import PlannedBase
+from harmony_cli.planning.plan_checks import goal_reliefs
+from harmony_cli.planning.plan_horizon import least_horizon, meets
+from harmony_cli.planning.plan_seed import Ground, straight_to, warm_outlines
+
+if TYPE_CHECKING:
+    from harmony_cli.scenario.models import PlannerSpec
+
+MAX_STRETCH = 5.0  # the longest horizon as a multiple of the phase's remaining time
+
+
+class HandMPC:
+    """Built once for a set of obstacles; `step` re-plans from the measured hand state."""
+
+    def __init__(
+        self,
+        spec: PlannerSpec,
+        obstacles: list[Obstacle],
+        home_rotations: np.ndarray,
+        heading_offset: float,
+        ground: Ground | None = None,
+        base: PlannedBase | None = None,
+        ceiling: float | None = None,
+    ):
+        self.spec, self.obstacles, self.home_rotations, self.ground = spec, obstacles, home_rotations, ground
+        self.heading_offset = heading_offset  # heading = angle(p_1 - p_0) + offset (pads face each other)
+        self.sqp = HandSQP(spec, obstacles, heading_offset, base, ceiling)
+        self.M = spec.control_points
+        self._speeds = np.r_[spec.max_speed, spec.max_speed, spec.max_yaw_rate]
+        self._accelerations = np.r_[spec.max_acceleration, spec.max_acceleration, spec.max_yaw_acceleration]
+        self.C: np.ndarray | None = None  # the last good plan's control points, over [t_plan, t_plan + T_plan]
+        self.phase: int | None = None
+        self.t_plan, self.T_plan = 0.0, 1.0
+        self.via: np.ndarray | None = None  # (2,) a point a phase's first plan routes through (a chosen stance)
+        self._route_next = False  # whether the next step tries a route (the phase's first plan wants one)
+        self._relief_key: tuple | None = None  # the goal whose reliefs the SQP has
+        warm_outlines(obstacles, ground)  # before the loop, as the compiled code is loaded
+
+    @property
+    def path(self) -> str:
+        return self.sqp.path
+
+    @property
+    def route_pending(self) -> bool:
+        """Whether the next step tries a route (the phase's first plan wanted one)."""
+        return self._route_next
+
+    def goal_heading(self, goal: np.ndarray, heading_now: float) -> float:
+        d = goal[1] - goal[0]
+        heading = np.arctan2(d[1], d[0]) + self.heading_offset
+        return heading_now + (heading - heading_now + np.pi) % (2 * np.pi) - np.pi  # nearest to heading_now
+
+    def step(
+        self,
+        t: float,
+        state: HandState,
+        goal: np.ndarray,
+        phase_end: float,
+        phase: int,
+        carrying_radius: float | None = None,
+        carrying_drop: float = 0.0,
+    ) -> PlannerResult:
+        """Re-plan at time t towards `goal` (2, 3) for phase number `phase` ending at `phase_end`.
+
+        While carrying, the object is the point `carrying_drop` below the hands' midpoint (its bottom centre)
+        kept clear of every obstacle grown sideways by `carrying_radius` (its half diagonal): a box-like object
+        over a flat-topped obstacle needs its bottom above the top, not a sphere's worth above it."""
+        carried = None if carrying_radius is None else (carrying_radius, carrying_drop)
+        start_time = time.perf_counter()
+        ends = (state, goal, self.goal_heading(goal, state.heading))
+        previous = self.C if phase == self.phase else None
+        fresh = previous is None
+        T = self.horizon(ends, phase_end - t) if fresh else max(phase_end, self.t_plan + self.T_plan) - t
+        T = max(T, self.spec.min_horizon)
+        if previous is None:  # straight line to the goal, then full SQP
+            C = straight_to(ends, self.M)
+            iterations = self.spec.phase_iterations
+        else:  # the previous plan from now on (de Casteljau), re-timed to the new horizon
+            tau = min(max((t - self.t_plan) / self.T_plan, 0.0), 0.99)  # np.clip costs ~4 us on a float
+            C = previous @ shift_matrix(self.M, tau) if tau > 0 else previous.copy()
+            iterations = self.spec.iterations
+        width = float(np.linalg.norm(goal[1] - goal[0]))
+        key = (phase, carried is None, goal.tobytes())  # the goal's reliefs: once a phase
+        if key != self._relief_key:
+            self.sqp.reliefs, self._relief_key = goal_reliefs(self.obstacles, goal, t + T, carried), key
+        via = self.via if fresh else None  # Planner sets it at a phase change: the phase's first plan only
+        route_now, self.via, self._route_next = self._route_next, None, False
+        # the way to a chosen stance is known (the straight line leads to the blocked side), or the last step asked
+        # for a route: its route's SQP alone (one SQP a step), the plan's own step if there is none or it fails
+        solved = None
+        if via is not None or route_now:
+            solved = on_route_plan(self.sqp, self.ground, t, T, ends, carried, width, via)
+        if solved is None or not solved.success:
+            solved, self._route_next = first_plan(
+                self.sqp, self.ground, C, t, T, ends, (iterations, carried, width), fresh and not route_now
+            )
+        if not solved.success and not fresh and (longer := self.horizon(ends, T)) > T:
+            # the hands fell behind the plan's end: the rate bounds (the clearance rows' slack is always feasible)
+            # need the closed-form horizon, which later plans then keep
+            solved = self.sqp.solve(C, t, longer, ends, iterations, carried, width)
+        outcome = solved.outcome
+        if outcome.success and not np.isfinite(solved.C).all():  # NaN / inf never becomes the plan: the last is held
+            outcome = Outcome.NON_FINITE
+        if outcome.success:
+            self.C, self.phase, self.t_plan, self.T_plan = solved.C, phase, t, solved.T
+        if self.C is None:
+            raise NoPlanToHold(f"first planner solve failed ({solved.status}); no plan to hold")
+        plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
+        elapsed = time.perf_counter() - start_time
+        return PlannerResult(
+            plan, outcome, solved.iterations, elapsed, solved.clearance, solved.routed, solved.shortfall
+        )
+
+    def horizon(self, ends: Ends, remaining: float) -> float:
+        """A phase's first plan's horizon: the phase's remaining time (at least min_horizon), or the least that
+        meets the rate bounds from the measured state when that is longer (plan_horizon.py), at most MAX_STRETCH
+        times it. Later plans keep the first's end (or the phase's, if later): the last plan from now on meets the
+        bounds over it."""
+        T = max(remaining, self.spec.min_horizon)
+        state, goal, heading = ends
+        curves = (
+            np.r_[state.positions.ravel(), state.heading],
+            np.r_[state.velocities.ravel(), state.heading_rate],
+            np.r_[goal.ravel(), heading],
+            self._speeds,
+            self._accelerations,
+            self.M,
+        )
+        if meets(T, *curves):
+            return T
+        return min(max(T, least_horizon(*curves)), MAX_STRETCH * T)

@@ -1,0 +1,92 @@
+"""The task-space planner's horizon from its rate bounds, in closed form: the least horizon T at which a plan of a
+known shape from the measured state to the goal at rest meets every speed and acceleration bound on the
+hodograph's control points; such a plan exists, so the QP over the free control points is feasible.
+
+Per curve (degree n = M - 1), C_0 = s and C_1 = s + v0 T / n are fixed by the measured state and C_{M-3..M-1} = g
+by the goal. The shapes: the m = M - 4 steps from C_1 to C_{M-3} in proportion to a profile w (even; trapezoids; a
+sine arch), each w_k d with d = (g - s - v0 T / n) / sum(w). The hodograph's speeds are then
+n w_k d / T (and 0 at the goal), its accelerations n (n - 1) (w_1 d - v0 T / n) / T^2 at column 0,
+n (n - 1) (w_{k+1} - w_k) d / T^2 between (w_{m+1} = 0) and 0 at the goal. Each bound |alpha + beta T| <= gamma T^j
+(j = 1, 2) holds for every T above the largest root of the two polynomials it is: the largest over the bounds and
+curves is the horizon a shape needs, and the least over the shapes is the horizon. An even profile suits long
+moves (speed-bound), the arch short ones (acceleration-bound). The result is never shorter than the least horizon
+at which any plan meets the bounds (a linear program over the free control points) and close to it for long moves;
+short moves get a more conservative horizon, which costs time, never feasibility."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+RAMPS = np.linspace(0.5, 3.5, 13)  # [steps] the trapezoids' ramps
+
+
+@lru_cache(maxsize=8)
+def _profiles(m: int) -> tuple[np.ndarray, ...]:
+    """Even steps, trapezoids (steps rising over a ramp from either end) and a sine arch."""
+    k = np.arange(m) + 0.5
+    trapezoids = [np.minimum(1.0, np.minimum(k, m - k) / ramp) for ramp in RAMPS]
+    return (np.ones(m), *trapezoids, np.sin(np.pi * k / m))
+
+
+def least_horizon(start: np.ndarray, velocity: np.ndarray, goal: np.ndarray, speed, acceleration, M: int) -> float:
+    """The least horizon [s] at which a plan of one of the shapes from `start` (curves,) moving at `velocity`
+    (curves,) to `goal` (curves,) at rest meets |speed| <= `speed` and |acceleration| <= `acceleration` (curves,)
+    at every hodograph control point (0 when any T does; inf when none does)."""
+    return min(_needed(w, start, velocity, goal, speed, acceleration, M) for w in _profiles(M - 4))
+
+
+def meets(T: float, start: np.ndarray, velocity: np.ndarray, goal: np.ndarray, speed, acceleration, M: int) -> bool:
+    """Whether a plan of one of the shapes over horizon `T` meets every bound."""
+    return any(_fits(w, T, start, velocity, goal, speed, acceleration, M) for w in _profiles(M - 4))
+
+
+def _terms(w: np.ndarray, start, velocity, goal, M: int):
+    """The bounds' (alpha, beta) per curve, d = alpha + beta T scaled: speed n max(w) d, acceleration between
+    n (n - 1) max|dw| d, at column 0 n (n - 1) (w_1 d - v0 T / n)."""
+    n, W = M - 1, w.sum()
+    d0, d1 = (goal - start) / W, -velocity / (n * W)  # d = d0 + d1 T
+    steps = np.abs(np.diff(np.r_[w, 0.0])).max()
+    return (
+        (n * w.max() * d0, n * w.max() * d1),
+        (n * (n - 1) * steps * d0, n * (n - 1) * steps * d1),
+        (n * (n - 1) * w[0] * d0, n * (n - 1) * (w[0] * d1 - velocity / n)),
+    )
+
+
+def _needed(w, start, velocity, goal, speed, acceleration, M: int) -> float:
+    (s0, s1), (a0, a1), (f0, f1) = _terms(w, start, velocity, goal, M)
+    roots = [_linear(s0, s1, speed), _quadratic(a0, a1, acceleration), _quadratic(f0, f1, acceleration)]
+    return float(np.max(np.concatenate(roots), initial=0.0))
+
+
+def _fits(w, T: float, start, velocity, goal, speed, acceleration, M: int) -> bool:
+    (s0, s1), (a0, a1), (f0, f1) = _terms(w, start, velocity, goal, M)
+    return bool(
+        np.all(np.abs(s0 + s1 * T) <= speed * T + 1e-12)
+        and np.all(np.abs(a0 + a1 * T) <= acceleration * T**2 + 1e-12)
+        and np.all(np.abs(f0 + f1 * T) <= acceleration * T**2 + 1e-12)
+    )
+
+
+def _linear(alpha: np.ndarray, beta: np.ndarray, gamma) -> np.ndarray:
+    """Per curve, the least T >= 0 above which |alpha + beta T| <= gamma T holds (inf: never, |beta| >= gamma)."""
+    gamma = np.broadcast_to(gamma, alpha.shape)
+    out = np.full(alpha.shape, np.inf)
+    ok = gamma - np.abs(beta) > 0.0
+    # (gamma - beta) T >= alpha and (gamma + beta) T >= -alpha
+    out[ok] = np.maximum(alpha[ok] / (gamma[ok] - beta[ok]), -alpha[ok] / (gamma[ok] + beta[ok]))
+    return np.maximum(out, 0.0)
+
+
+def _quadratic(alpha: np.ndarray, beta: np.ndarray, gamma) -> np.ndarray:
+    """Per curve, the largest root of gamma T^2 -+ (alpha + beta T) (0 if none): |alpha + beta T| <= gamma T^2 above."""
+    gamma = np.broadcast_to(gamma, alpha.shape)
+    out = np.zeros(alpha.shape)
+    for sign in (1.0, -1.0):  # gamma T^2 - sign beta T - sign alpha >= 0
+        b, c = -sign * beta, -sign * alpha
+        disc = b * b - 4.0 * gamma * c
+        real = disc >= 0.0
+        out[real] = np.maximum(out[real], (-b[real] + np.sqrt(disc[real])) / (2.0 * gamma[real]))
+    return out
