@@ -1,12 +1,10 @@
 """Which solvers harmony offers, in one place: its own Gauss-Newton modes and the CasADi NLP plugins that load on
-this machine; `make_solver` builds one for a problem and says which code path it took."""
+this machine (solvers.py's `make_solver` builds one for a problem). casadi loads only inside the functions that
+ask it, so that validating a scenario stays light."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Literal, get_args
-
-if TYPE_CHECKING:  # casadi and the solvers load only when a solver is built (validation stays light)
-    pass
+from typing import Literal, get_args
 
 HARMONY_SOLVERS = {
     "gauss_newton": "Gauss-Newton SQP to convergence, one QP per iteration",

@@ -98,9 +98,9 @@ class StancePlan:
 class ChestRamp:
     """The chest reference in time: it never steps. A posture that starts or ends (a blocked group's phases begin
     or end, the pose nearest the base changes) moves the reference from where it was at most `rate` [rad/s] per
-    second of the whole-body MPC's knot times, so a chest turned at a blocked stance turns back at a pace the hands
-    can hold a box through, not in one control step. None until a posture is first asked for (straight: nothing
-    to ramp)."""
+    second of the whole-body MPC's knot times, so a chest turned at a blocked stance turns back at a bounded rate
+    while the hands hold the box, not in one control step. None until a posture is first asked for (straight:
+    nothing to ramp)."""
 
     def __init__(self, rate: float):
         self.rate = rate
