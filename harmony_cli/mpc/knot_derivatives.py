@@ -13,6 +13,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from harmony_cli.mpc.codegen import Buffered, Compiling, code_path
+from harmony_cli.mpc.far_rows import FarBound
 from harmony_cli.mpc.problem import Problem
 
 
@@ -159,9 +160,17 @@ class KnotConstraints:
         h = constraint(q, ref)
         self.m, self.n_dof, self.n_rows = h.numel(), nd, (K - 1) * h.numel()
         self.function, self.n_ref = constraint, constraint.size1_in(1)
-        split = h.numel() - problem.reverse_rows
+        split = self.split = h.numel() - problem.reverse_rows
         J = cs.vertcat(cs.jacobian(h[:split], q), cs.jacobian(h[split:], q, {"allow_forward": False}))
-        self._rows = Compiling(cs.Function("harmony_clearance", [q, ref], [h, cs.densify(J.T)]).map(K))
+        # the far rows (the arms', far_rows.py) in a map of their own, evaluated only where they could bind
+        self.far = problem.far
+        near = split if self.far is not None else h.numel()
+        self._rows = Compiling(cs.Function("harmony_clearance", [q, ref], [h[:near], cs.densify(J[:near, :].T)]).map(K))
+        self._far_rows = None
+        if self.far is not None:
+            rows = cs.Function("harmony_clearance_far", [q, ref], [h[split:], cs.densify(J[split:, :].T)])
+            self._far_rows = Compiling(rows.map(K))
+        self._h, self._J = np.zeros((K, self.m)), np.zeros((K, self.m, nd))
         self._values = Compiling(cs.Function("harmony_clearance_value", [q, ref], [h]).map(K))  # for `margins`
         self._symbols = q, ref, h
         if curvature:
@@ -176,12 +185,20 @@ class KnotConstraints:
         return Buffered(self._rows.function)
 
     @cached_property
+    def far_map(self) -> Buffered:
+        assert self._far_rows is not None
+        return Buffered(self._far_rows.function)
+
+    @cached_property
     def value_map(self) -> Buffered:
         """The compiled per-knot rows alone (half the time of `map`: no Jacobian)."""
         return Buffered(self._values.function)
 
     @property
     def code_path(self) -> str:
+        """How the rows are evaluated; waits for their C (the far rows' too: not in the loop)."""
+        if self._far_rows is not None:
+            self._far_rows.function  # noqa: B018 - waits for gcc
         return code_path(self._rows.function)
 
     @cached_property
@@ -211,11 +228,34 @@ class KnotConstraints:
         """(h at knots >= 1, their lower bounds min(0, h(q_0))) from h at every knot (K x m, a map's buffer)."""
         return h[1:].ravel().copy(), np.tile(np.minimum(h[0], 0.0), h.shape[0] - 1)
 
-    def _rows_and_jacobians(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """h (K x m) and the per-knot Jacobians J (K x m x n_dof) at every knot: views of the map's buffers."""
-        out = self.map(i0=self._at_knots(x), i1=p)
+    def knots(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """q (n_dof x K) and the parameters (m x K) at every knot."""
         K = self.B.shape[0]
-        return out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, self.n_dof)
+        return self._at_knots(x), p[: self.n_ref * K].reshape((self.n_ref, K), order="F")
+
+    def _rows_and_jacobians(
+        self, x: np.ndarray, p: np.ndarray, bound: FarBound | None = None, step: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, bool]:
+        """h (K x m) and the per-knot Jacobians J (K x m x n_dof) at every knot (views of buffers reused by the next
+        call), and whether the far rows were evaluated: not where `bound` shows that no step changing the knots'
+        joints by at most `step` (n_dof x K) brings them to their bounds (they read +inf, a zero Jacobian: rows
+        that cannot bind); where they are, `bound` keeps their values."""
+        K, split = self.B.shape[0], self.split
+        q, ref = self.knots(x, p)
+        out = self.map(i0=q, i1=p)
+        if self.far is None:
+            return out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, self.n_dof), True
+        h, J = self._h, self._J
+        h[:, :split], J[:, :split] = out["o0"].reshape(K, split), out["o1"].reshape(K, split, self.n_dof)
+        if bound is not None and step is not None and bound.clear(q, ref, step):
+            h[:, split:], J[:, split:] = np.inf, 0.0
+            return h, J, False
+        far = self.far_map(i0=q, i1=p)
+        h[:, split:] = far["o0"].reshape(K, self.m - split)
+        J[:, split:] = far["o1"].reshape(K, self.m - split, self.n_dof)
+        if bound is not None:
+            bound.store(q, ref, h[:, split:])
+        return h, J, True
 
     def margins(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(h at knots >= 1, lower bounds), without the Jacobian (its own map: half the time)."""
@@ -223,16 +263,18 @@ class KnotConstraints:
 
     def evaluate(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(h at knots >= 1, lower bounds, C: n_rows x n_vars dense)."""
-        h, J = self._rows_and_jacobians(x, p)
+        h, J, _ = self._rows_and_jacobians(x, p)
         C = np.zeros(self.pattern.shape)
         C[:, : J.shape[2] * self.B.shape[1]] = np.einsum("kji,ka->kjai", J[1:], self.B[1:]).reshape(self.n_rows, -1)
         return *self._split(h), C
 
-    def jacobians(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(h at knots >= 1, lower bounds, the per-knot Jacobians J_k at knots >= 1: (K - 1, m, n_dof)); C without
-        forming it (mpc/knot_rows.py)."""
-        h, J = self._rows_and_jacobians(x, p)
-        return *self._split(h), J[1:].copy()
+    def jacobians(
+        self, x: np.ndarray, p: np.ndarray, bound: FarBound | None = None, step: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+        """(h at knots >= 1, lower bounds, the per-knot Jacobians J_k at knots >= 1: (K - 1, m, n_dof), whether the
+        far rows were evaluated (see _rows_and_jacobians)); C without forming it (mpc/knot_rows.py)."""
+        h, J, evaluated = self._rows_and_jacobians(x, p, bound, step)
+        return *self._split(h), J[1:].copy(), evaluated
 
     def entries(self, rows: np.ndarray, cols: np.ndarray) -> tuple[np.ndarray, ...]:
         """Where the Jacobian's entries C[rows, cols] (cols: position variables) come from, for `evaluate_entries`:
@@ -246,7 +288,7 @@ class KnotConstraints:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(h at knots >= 1, lower bounds, the Jacobian's values at `entries`): `evaluate` without the dense C, the
         same products J_k[j, i] b_k[a] (to the bit)."""
-        h, J = self._rows_and_jacobians(x, p)
+        h, J, _ = self._rows_and_jacobians(x, p)
         knot, row, joint, point = entries
         return *self._split(h), J[knot, row, joint] * self.B[knot, point]
 
