@@ -13,7 +13,8 @@ import scipy.sparse as sp
 
 from harmony_cli.mpc.codegen import Buffered
 from harmony_cli.mpc.far_rows import FarBound
-from harmony_cli.mpc.knot_derivatives import shared_constraints, shared_derivatives
+from harmony_cli.mpc.knot_constraints import shared_constraints
+from harmony_cli.mpc.knot_derivatives import shared_derivatives
 from harmony_cli.mpc.knot_rows import KnotRows
 from harmony_cli.mpc.problem import Problem, SolveContext, SolveResult
 from harmony_cli.mpc.reduction import Reduction

@@ -178,16 +178,19 @@ def build_problem(
         S=S,
         constraint=constraint if constraint is not None and constraint.numel_out(0) else None,
         reverse_rows=arm_rows(robot, clearances) if constraint is not None else 0,
-        far=far_rows(robot, clearances, layout, constraint.size1_in(0))
-        if constraint is not None and arm_rows(robot, clearances)
-        else None,
+        far=far_rows(robot, clearances, layout, constraint),
     )
 
 
-def far_rows(robot: Robot, clearances: tuple[Clearance, ...], layout: KnotLayout, n_q: int) -> FarRows:
-    """The arms' clearance rows (the constraint's last, clearance.arm_rows) as FarRows: the arms' lever bounds
-    over the constraint's q (`n_q`: the joints, then any compliant offsets, which move no arm point) and each
-    row's body in the knot parameters."""
+def far_rows(
+    robot: Robot, clearances: tuple[Clearance, ...], layout: KnotLayout, constraint: cs.Function | None
+) -> FarRows | None:
+    """The arms' clearance rows (the constraint's last, clearance.arm_rows) as FarRows (None: no such rows): the
+    arms' lever bounds over the constraint's q (the joints, then any compliant offsets, which move no arm point)
+    and each row's body in the knot parameters."""
+    if constraint is None or not arm_rows(robot, clearances):
+        return None
+    n_q = constraint.size1_in(0)
     levers = np.zeros(n_q)
     for chain in robot.arms:
         for name, lever in chain.levers:
