@@ -7,7 +7,8 @@ from conftest import TABLE1
 
 from harmony_cli.maths.shapes import obstacle_shape
 from harmony_cli.mpc import nlp
-from harmony_cli.mpc.knot_derivatives import KnotConstraints, KnotDerivatives
+from harmony_cli.mpc.knot_constraints import KnotConstraints
+from harmony_cli.mpc.knot_derivatives import KnotDerivatives
 from harmony_cli.mpc.knot_params import hand_rows
 from harmony_cli.mpc.native_oracle import native_oracle
 from harmony_cli.mpc.nlp import NlpSolver, SymbolicNlpSolver

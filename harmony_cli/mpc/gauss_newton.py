@@ -12,11 +12,13 @@ import numpy as np
 import scipy.sparse as sp
 
 from harmony_cli.mpc.codegen import Buffered
-from harmony_cli.mpc.knot_derivatives import shared_constraints, shared_derivatives
+from harmony_cli.mpc.far_rows import FarBound
+from harmony_cli.mpc.knot_constraints import shared_constraints
+from harmony_cli.mpc.knot_derivatives import shared_derivatives
 from harmony_cli.mpc.knot_rows import KnotRows
 from harmony_cli.mpc.problem import Problem, SolveContext, SolveResult
 from harmony_cli.mpc.reduction import Reduction
-from harmony_cli.mpc.row_screen import DenseRows, ScreenedQP
+from harmony_cli.mpc.row_screen import REACH_SAFETY, DenseRows, ScreenedQP
 
 SCREENED = ("daqp", "qpoases")  # dense active-set solvers: their cost grows with the rows they are given
 
@@ -38,6 +40,8 @@ class GaussNewtonSolver:
             self.options |= {"osqp": {"verbose": False, "eps_abs": 1e-6, "eps_rel": 1e-6, "max_iter": 4000}}
         self._qps: dict[bytes, tuple] = {}
         self.regularisation = 1e-6
+        # this solver's own bound on the far rows (the constraints' maps are shared by every solver of the problem)
+        self.far = FarBound(problem.far) if self.constraints is not None and problem.far is not None else None
 
     @cached_property
     def path(self) -> str:
@@ -135,15 +139,37 @@ class GaussNewtonSolver:
     def _screened_step(self, qp: ScreenedQP, A: tuple, r: Reduction, x, p, free, bounds, relaxed: bool = False):
         """(step or None, the solver's failure status, rows solved, QPs solved) of a dense QP over the rows that
         can matter (mpc/row_screen.py): the same optimum as over every row. `relaxed`: see _needs."""
-        lba, uba = r.rows(self.problem.lb, self.problem.ub, x)
-        rows: DenseRows | KnotRows = DenseRows(A[0])
-        if self.constraints is not None:  # h + C dz >= lower
-            value, lower, J = self.constraints.jacobians(x, p)
-            rows = KnotRows(A[0], A[1], J, self.constraints.B[1:], free)
-            lba, uba = np.concatenate([lba, _needs(lower - value, relaxed)]), np.r_[uba, np.full(value.size, np.inf)]
         h, g, lbx, ubx = bounds
-        out = qp.solve(h, g, lbx, ubx, rows, lba, uba)
-        return (out.z if out.success else None), out.status, out.rows, out.solves
+        if self.constraints is None:
+            out = qp.solve(h, g, lbx, ubx, DenseRows(A[0]), *r.rows(self.problem.lb, self.problem.ub, x))
+            return (out.z if out.success else None), out.status, out.rows, out.solves
+        # the far rows only where a step like the last (REACH_SAFETY times it) could bring them to their bounds,
+        # and again where the step taken could: the same optimum as with them (mpc/far_rows.py)
+        step = self._knot_steps(REACH_SAFETY * qp.reach, free)
+        solves = 0
+        for evaluated_now in (False, True):
+            value, lower, J, evaluated = self.constraints.jacobians(x, p, self.far, None if evaluated_now else step)
+            rows = KnotRows(A[0], A[1], J, self.constraints.B[1:], free)
+            lba, uba = r.rows(self.problem.lb, self.problem.ub, x)
+            lba, uba = np.concatenate([lba, _needs(lower - value, relaxed)]), np.r_[uba, np.full(value.size, np.inf)]
+            out = qp.solve(h, g, lbx, ubx, rows, lba, uba)
+            solves += out.solves
+            if evaluated or not out.success or self._far_clear(x, p, self._knot_steps(out.z, free)):
+                break
+        return (out.z if out.success else None), out.status, out.rows, solves
+
+    def _far_clear(self, x: np.ndarray, p: np.ndarray, step: np.ndarray) -> bool:
+        """Whether the far rows left out cannot bind after a step changing the knots' joints by at most `step`."""
+        assert self.constraints is not None and self.far is not None
+        return self.far.clear(*self.constraints.knots(x, p), step)
+
+    def _knot_steps(self, z: np.ndarray, free: np.ndarray) -> np.ndarray:
+        """|joint change| at each knot (n_dof x K) bounded from a step's sizes over the free variables."""
+        assert self.constraints is not None
+        full = np.zeros(free.size)
+        full[free] = np.abs(z)
+        n_dof, B = self.constraints.n_dof, self.constraints.B
+        return full[: n_dof * B.shape[1]].reshape((n_dof, B.shape[1]), order="F") @ np.abs(B).T
 
     def _sparse_step(self, qp: Buffered, from_c, r: Reduction, x, p, bounds, relaxed: bool = False):
         """(step or None, the solver's failure status, rows, 1) of a sparse QP over every row."""

@@ -16,7 +16,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from harmony_cli.mpc.codegen import Buffered
-from harmony_cli.mpc.knot_derivatives import shared_constraints, shared_derivatives
+from harmony_cli.mpc.knot_constraints import shared_constraints
+from harmony_cli.mpc.knot_derivatives import shared_derivatives
 from harmony_cli.mpc.native_oracle import native_oracle
 from harmony_cli.mpc.oracles import ConstraintOracle, Oracle
 from harmony_cli.mpc.problem import Problem, SolveContext, SolveResult

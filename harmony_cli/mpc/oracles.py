@@ -7,7 +7,8 @@ from __future__ import annotations
 import casadi as cs
 import numpy as np
 
-from harmony_cli.mpc.knot_derivatives import KnotConstraints, KnotDerivatives
+from harmony_cli.mpc.knot_constraints import KnotConstraints
+from harmony_cli.mpc.knot_derivatives import KnotDerivatives
 
 
 class _Buffered(cs.Callback):

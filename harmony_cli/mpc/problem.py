@@ -11,6 +11,7 @@ import casadi as cs
 import numpy as np
 
 from harmony_cli.mpc.codegen import Buffered, Compiling
+from harmony_cli.mpc.far_rows import FarRows
 
 # (x, p) -> (constraint rows at knots >= 1, their lower bounds)
 Margins = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
@@ -43,6 +44,7 @@ class Problem:
     # the last rows of h, each a soft-min over many points (the arms'): their Jacobian is taken in reverse mode,
     # one sweep per row, where forward mode would take one per joint
     reverse_rows: int = 0
+    far: FarRows | None = None  # those last rows, left unevaluated where a bound shows they cannot bind
     term_values: cs.Function = field(init=False)
     constraint_at_knots: cs.Function | None = field(init=False)
     _terms: Compiling | None = field(init=False, default=None, repr=False)

@@ -14,6 +14,7 @@ import casadi as cs
 import numpy as np
 
 from harmony_cli.mpc.clearance import Clearance, arm_rows, clearance_function, clearance_margins
+from harmony_cli.mpc.far_rows import FarRows
 from harmony_cli.mpc.knot_params import STANCE_ROWS, KnotLayout
 from harmony_cli.mpc.problem import Problem, dense, linear_rows
 from harmony_cli.mpc.transcription import Transcription
@@ -177,7 +178,28 @@ def build_problem(
         S=S,
         constraint=constraint if constraint is not None and constraint.numel_out(0) else None,
         reverse_rows=arm_rows(robot, clearances) if constraint is not None else 0,
+        far=far_rows(robot, clearances, layout, constraint),
     )
+
+
+def far_rows(
+    robot: Robot, clearances: tuple[Clearance, ...], layout: KnotLayout, constraint: cs.Function | None
+) -> FarRows | None:
+    """The arms' clearance rows (the constraint's last, clearance.arm_rows) as FarRows (None: no such rows): the
+    arms' lever bounds over the constraint's q (the joints, then any compliant offsets, which move no arm point)
+    and each row's body in the knot parameters."""
+    if constraint is None or not arm_rows(robot, clearances):
+        return None
+    n_q = constraint.size1_in(0)
+    levers = np.zeros(n_q)
+    for chain in robot.arms:
+        for name, lever in chain.levers:
+            levers[robot.index(name)] = max(levers[robot.index(name)], lever)
+    arms = sum(chain.n_points > 0 for chain in robot.arms)
+    bodies = [o for o, c in enumerate(clearances) if c.arm is not None for _ in range(arms)]
+    centre = [range(layout.obstacle_centre(o).start, layout.obstacle_centre(o).stop) for o in bodies]
+    poses = np.array([[*c, layout.obstacle_yaw(o)] for c, o in zip(centre, bodies)], dtype=int)
+    return FarRows(levers, poses)
 
 
 def joint_limits(robot: Robot, admittance: AdmittanceSpec | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -47,10 +47,13 @@ class ChainJoint:
 
 @dataclass(frozen=True)
 class ArmChain:
-    """One arm: the link where the hands' chains part (`base_link`) and the joints from it down to the wrist."""
+    """One arm: the link where the hands' chains part (`base_link`) and the joints from it down to the wrist;
+    `levers`: per moving joint from the root down to the wrist, a bound on how fast any of the arm's points moves
+    per unit of that joint's motion, in every configuration (lever_bounds)."""
 
     base_link: str
     joints: tuple[ChainJoint, ...]
+    levers: tuple[tuple[str, float], ...] = ()
 
     @property
     def n_points(self) -> int:
@@ -92,8 +95,42 @@ def arm_chains(urdf: Path, end_effectors: tuple[str, ...], radius: float) -> tup
                     next_origin = _origin(parent_joint[arm[i + 1]])[:3, 3]
                 points = _link_points(links[link], next_origin, step) if i >= moving[0] else np.zeros((0, 3))
                 joints.append(_chain_joint(parent_joint[link], points))
-        chains.append(ArmChain(path[shared - 1], tuple(joints)))
+        above = [parent_joint[link] for link in path[1:shared]]  # root to the link where the chains part
+        chains.append(ArmChain(path[shared - 1], tuple(joints), lever_bounds(above, joints)))
     return tuple(chains)
+
+
+def lever_bounds(above: list[ET.Element], joints: list[ChainJoint]) -> tuple[tuple[str, float], ...]:
+    """Per moving joint of the path from the root through `above` down the arm's `joints`, a bound on |dp/dq| for
+    every arm point p in every configuration: 1 for a prismatic joint (p moves along its unit axis); for a
+    revolute one the point's distance from the joint's origin, at most the sum of the origins' offsets from it
+    down to the point's link, every prismatic joint's travel between, and the point's offset on its link."""
+    path = [(required(j, "name", "joint"), str(j.get("type")), _origin(j)[:3, 3], _travel(j)) for j in above]
+    path += [(j.name, j.kind, j.origin[:3, 3], 0.0) for j in joints]
+    reach = [float(np.linalg.norm(j.points, axis=1).max(initial=-np.inf)) for j in joints]
+    reach = [-np.inf] * len(above) + reach  # the farthest point on each link of the path (none: -inf)
+    bounds = []
+    for i, (name, kind, _, _) in enumerate(path):
+        if kind == "fixed":
+            continue
+        farthest, along = -np.inf, 0.0
+        for offset, (_, later_kind, origin, travel) in zip(reach[i + 1 :], path[i + 1 :]):
+            along += float(np.linalg.norm(origin)) + (travel if later_kind == "prismatic" else 0.0)
+            farthest = max(farthest, along + offset)
+        farthest = max(farthest, reach[i])  # points on the joint's own child link
+        if np.isfinite(farthest):
+            bounds.append((name, 1.0 if kind == "prismatic" else farthest))
+    return tuple(bounds)
+
+
+def _travel(joint: ET.Element) -> float:
+    """[m] how far a prismatic joint slides from its zero at most (inf without limits)."""
+    limit = joint.find("limit")
+    if joint.get("type") != "prismatic":
+        return 0.0
+    if limit is None or limit.get("lower") is None or limit.get("upper") is None:
+        return np.inf
+    return max(abs(float(limit.get("lower", 0))), abs(float(limit.get("upper", 0))))
 
 
 def _path(parent_joint: dict[str, ET.Element], link: str) -> list[str]:
