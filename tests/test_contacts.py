@@ -42,6 +42,7 @@ def test_a_normal_left_behind_by_a_turn_is_its_angle_off_the_box_face_and_fricti
     assert np.allclose(out.normal_off_face_deg, [30.0, 0.0])
     # left: |(4, 0, 3) + (0, 0, 1)| / (0.8 x 20); right: 4 / (0.8 x 20)
     assert np.allclose(out.friction_used, [np.hypot(4.0, 4.0) / 16.0, 4.0 / 16.0])
+    assert out.other_N == 50.0 and out.other_links == (7,)  # the box pressing on a link that is no pad
 
 
 def test_a_hand_without_contact_has_no_friction_use_and_no_normal_angle():

@@ -138,3 +138,19 @@ def test_a_drop_names_a_grasp_off_square_or_sheared_and_a_clean_grasp_adds_nothi
     assert reason.endswith("; it was gripped with one pad 12 mm ahead of the other")
     assert "gripped" not in task_failure(task | {"grip_off_square_deg": 0.05, "grip_shear_m": 0.001}, steps)["reason"]
     assert first_held(steps.assign(holding=False), "box_off_square_deg") is None
+
+
+def test_a_drop_says_when_the_pads_crushed_the_box_and_what_else_of_the_robot_it_pressed_on():
+    steps = _steps([1.3, 1.3, 1.3, 0.6, 0.15], [True] * 5)
+    steps["left_force_normal_N"] = [20.0, 240.0, 90.0, 0.0, 0.0]
+    steps["left_force_ref_N"] = [20.0] * 5
+    steps["box_on_robot_N"] = [0.0, 0.0, 190.0, 40.0, 0.0]
+    steps["box_on_robot_links"] = ["", "", "LARM2", "LARM2 CHEST", ""]
+    task = {"success": False, "box_dropped": True, "box_fell_s": steps["t"][3], "box_final": [6.1, 3.3, 0.15]}
+    reason = task_failure(task, steps)["reason"]
+    assert "the pads pressed up to 240 N against a 20 N reference" in reason
+    assert "the box pressed on the robot's CHEST, LARM2 (up to 190 N) from t = 0.04 s" in reason
+    steps["left_force_normal_N"] = [20.0, 30.0, 20.0, 0.0, 0.0]  # within twice the reference: not said
+    steps["box_on_robot_N"] = 0.0
+    reason = task_failure(task, steps)["reason"]
+    assert "pressed" not in reason

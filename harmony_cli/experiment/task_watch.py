@@ -49,5 +49,8 @@ class TaskWatch:
             "box_tilt_deg": tilt,
             "box_from_hands_m": float(np.linalg.norm(centre - obs.hand_positions.mean(axis=0))),
             "box_touches_robot": touching,
+            # the box against the robot other than by the pads (an arm, the chest): the force and the links
+            "box_on_robot_N": truth.pad_contacts.other_N if truth.pad_contacts is not None else 0.0,
+            "box_on_robot_links": " ".join(truth.box_on_links),
             "dropped": self.dropped_at is not None,
         }

@@ -22,6 +22,8 @@ OFF_SQUARE_DEG = 0.5
 SHEAR_M = 0.005
 FRICTION_WINDOW_S = 1.5  # [s] before a drop (flagged once the contact has been lost for a moment; sim/contacts.py)
 NORMAL_OFF_FACE_DEG = 5.0  # a contact normal further off the box's faces than this is said
+SQUEEZE_OVER = 2.0  # a pad pressing more than this times its force reference before a drop is said
+ARM_PRESS_N = 1.0  # [N] the box pressing on a robot link that is no pad with more than this is said
 
 
 def fell_at(steps: pd.DataFrame, table_tops: list[float], box_height: float) -> float | None:
@@ -68,19 +70,56 @@ def _dropped(task: dict, steps: pd.DataFrame) -> str:
         grasp.append(f"with one pad {1e3 * shear:.0f} mm ahead of the other")
     if parts and grasp:
         parts.append(f"it was gripped {' and '.join(grasp)}")
-    friction = _friction_before(steps, _dropped_s(task, steps))
-    if parts and friction:
-        parts.append(friction)
-    return "; ".join(parts)
+    drop_s = _dropped_s(task, steps)
+    before = [_friction_before(steps, drop_s), _squeeze_before(steps, drop_s), _arms_before(steps, drop_s)]
+    return "; ".join(parts + [text for text in before if parts and text])
+
+
+def _window(steps: pd.DataFrame, drop_s: float | None) -> pd.DataFrame | None:
+    """The steps in the FRICTION_WINDOW_S before a drop (None: no drop)."""
+    if drop_s is None:
+        return None
+    return steps[(steps["t"] >= drop_s - FRICTION_WINDOW_S) & (steps["t"] <= drop_s)]
+
+
+def _squeeze_before(steps: pd.DataFrame, drop_s: float | None) -> str | None:
+    """The pads' largest pressing force before a drop when it was over SQUEEZE_OVER times its reference (the hands
+    crushing the box rather than holding it); None otherwise or without force columns."""
+    before = _window(steps, drop_s)
+    forces = [c for c in steps.columns if c.endswith("_force_normal_N")]
+    references = [c for c in steps.columns if c.endswith("_force_ref_N")]
+    if before is None or not forces or not references:
+        return None
+    pressed = float(np.nanmax(before[forces].to_numpy(float), initial=-np.inf))
+    reference = float(np.nanmax(before[references].to_numpy(float), initial=-np.inf))
+    if not np.isfinite(pressed) or reference <= 0 or pressed <= SQUEEZE_OVER * reference:
+        return None
+    return f"the pads pressed up to {pressed:.0f} N against a {reference:g} N reference"
+
+
+def _arms_before(steps: pd.DataFrame, drop_s: float | None) -> str | None:
+    """The robot links other than the pads the box pressed on before a drop, and how hard; None if none."""
+    before = _window(steps, drop_s)
+    if before is None or "box_on_robot_N" not in steps:
+        return None
+    pressing = before[before["box_on_robot_N"] > ARM_PRESS_N]
+    if pressing.empty:
+        return None
+    links = sorted({link for names in pressing["box_on_robot_links"].dropna() for link in str(names).split()})
+    at = float(pressing["t"].iloc[0])
+    return (
+        f"the box pressed on the robot's {', '.join(links)} (up to {pressing['box_on_robot_N'].max():.0f} N) "
+        f"from t = {at:.2f} s"
+    )
 
 
 def _friction_before(steps: pd.DataFrame, drop_s: float | None) -> str | None:
     """The pads' largest use of their friction in the moments before a drop and, when PyBullet's contact normals
     lay off the box's faces then, how far (sim/contacts.py); None without contact columns."""
     used_columns = [c for c in steps.columns if c.endswith("_friction_used")]
-    if drop_s is None or not used_columns:
+    before = _window(steps, drop_s)
+    if before is None or not used_columns:
         return None
-    before = steps[(steps["t"] >= drop_s - FRICTION_WINDOW_S) & (steps["t"] <= drop_s)]
     used = float(np.nanmax(before[used_columns].to_numpy(float), initial=-np.inf))
     if not np.isfinite(used):
         return None

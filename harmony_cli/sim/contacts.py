@@ -23,12 +23,14 @@ class PadContacts:
     """Per hand: its pads' contact points with the box (count), their normal forces summed in PyBullet's order [N],
     |their summed friction force| over (friction coefficient x that sum) (1: sliding; nan without a pressing
     contact) and the largest angle of one's normal from the normal of the box's nearest face [deg] (nan without
-    contact)."""
+    contact); beside them, what the box presses on robot links of no hand."""
 
     points: np.ndarray
     normal_N: np.ndarray
     friction_used: np.ndarray
     normal_off_face_deg: np.ndarray
+    other_N: float = 0.0  # the normal force on robot links that are no hand's pads (the box against an arm) [N]
+    other_links: tuple[int, ...] = ()  # those links (PyBullet indices), in order
 
 
 def pad_contacts(
@@ -39,12 +41,18 @@ def pad_contacts(
     friction: float,
 ) -> PadContacts:
     """`contacts`: PyBullet's contact points of the box (A) with the robot (B); `hands_of_link`: the hands whose
-    pads a robot link is (links of no hand are left out); `box_rotation` (3, 3): the box's orientation; `friction`:
-    the coefficient PyBullet uses between pad and box (the product of the two bodies' lateral frictions)."""
+    pads a robot link is (links of no hand are summed apart); `box_rotation` (3, 3): the box's orientation;
+    `friction`: the coefficient PyBullet uses between pad and box (the product of the two bodies' lateral
+    frictions)."""
     points = np.zeros(n_hands, dtype=int)
     normal, force = np.zeros(n_hands), np.zeros((n_hands, 3))
     off = np.full(n_hands, np.nan)
+    other, others = 0.0, set()
     for point in contacts:
+        if point[LINK_B] not in hands_of_link:
+            other += point[NORMAL_FORCE]
+            others.add(point[LINK_B])
+            continue
         n = np.asarray(point[NORMAL_ON_B])
         tangential = point[FRICTION_1] * np.asarray(point[FRICTION_DIR_1])
         tangential = tangential + point[FRICTION_2] * np.asarray(point[FRICTION_DIR_2])
@@ -58,4 +66,4 @@ def pad_contacts(
     pressing = normal > 0.0
     used = np.full(n_hands, np.nan)
     used[pressing] = np.linalg.norm(force[pressing], axis=1) / (friction * normal[pressing])
-    return PadContacts(points, normal, used, off)
+    return PadContacts(points, normal, used, off, float(other), tuple(sorted(others)))

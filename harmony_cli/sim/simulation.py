@@ -36,6 +36,7 @@ class Truth:
     box_pose: np.ndarray | None  # centre and quaternion (x, y, z, w): replays draw it
     box_touches_robot: bool
     pad_contacts: PadContacts | None  # per hand (links below its wrist sensor): contacts with the box, their force
+    box_on_links: tuple[str, ...]  # the robot links of no hand the box touches (an arm, the chest), by name
     push_N: dict[str, float]  # push_<name>_N, the force acting over the coming physics steps
     obstacle_positions: dict[str, np.ndarray]  # moving obstacles' centres as PyBullet has them
     clearance_robot_m: dict[str, float]  # per obstacle, the robot's true distance (PyBullet closest points)
@@ -128,6 +129,7 @@ class Simulation:
         """Ground truth for the logs (never for the controllers)."""
         world = self.world
         centre, z_axis, pose, touching, pads = None, None, None, False, None
+        others: tuple[str, ...] = ()
         positions: dict[str, np.ndarray] = {}
         robot: dict[str, float] = {}
         carried: dict[str, float] = {}
@@ -141,6 +143,7 @@ class Simulation:
                     contacts, self._hands_of_tool_link, len(self.hand_links), rotation, self.pad_friction
                 )
                 touching = len(contacts) > 0
+                others = tuple(self._link_name(link) for link in pads.other_links)
                 carried = world.clearances(world.box)
             positions = {name: world.obstacle_position(name) for name in world.moving}
             robot = world.clearances(self.body)
@@ -151,6 +154,7 @@ class Simulation:
             box_pose=pose,
             box_touches_robot=touching,
             pad_contacts=pads,
+            box_on_links=others,
             push_N=self.pushes.magnitudes(self.time),
             obstacle_positions=positions,
             clearance_robot_m=robot,
