@@ -28,10 +28,6 @@ class FarRows:
     levers: np.ndarray
     poses: np.ndarray
 
-    @property
-    def n_rows(self) -> int:
-        return self.poses.shape[0]
-
 
 class FarBound:
     """The rows' values at the last point they were evaluated at, and whether they can bind at another."""
@@ -40,16 +36,15 @@ class FarBound:
         self.far = far
         self._joints = np.flatnonzero(far.levers)  # the joints that move an arm point
         self._levers = far.levers[self._joints]
-        self._pose_rows = np.unique(far.poses)  # the bodies' pose rows in a knot's parameters
         self._q: np.ndarray | None = None  # (joints, K) where they were evaluated
         self._h = np.zeros(0)  # (K, rows) their values there
         self._lowest = np.zeros(0)  # (K,) the smallest of them per knot
-        self._poses = np.zeros(0)  # (pose rows, K) their bodies' poses there
+        self._poses = np.zeros(0)  # (rows, 4, K) their bodies' centres and yaws there
 
     def store(self, q: np.ndarray, ref: np.ndarray, h: np.ndarray) -> None:
         """The rows' values h (K, rows) at the knots' joints q (n_q, K) and parameters ref (m, K)."""
         self._q, self._h, self._lowest = q[self._joints], h.copy(), h.min(axis=1)
-        self._poses = ref[self._pose_rows]
+        self._poses = ref[self.far.poses]
 
     def clear(self, q: np.ndarray, ref: np.ndarray, step: np.ndarray) -> bool:
         """Whether every row stays >= 0 at the knots' joints q (n_q, K) and parameters ref (m, K) after any step
@@ -57,13 +52,10 @@ class FarBound:
         if self._q is None:
             return False
         drift = self._levers @ (np.abs(q[self._joints] - self._q) + step[self._joints])  # (K,)
-        poses = ref[self._pose_rows]
+        poses = ref[self.far.poses]
         if np.array_equal(poses, self._poses):  # the bodies stood still
             return bool(np.all(self._lowest >= drift))
-        now = ref[self.far.poses]  # (rows, 4, K)
-        before = np.zeros(ref.shape)
-        before[self._pose_rows] = self._poses
-        if np.any(now[:, 3] != before[self.far.poses][:, 3]):  # a body turned: the bound does not cover it
+        if np.any(poses[:, 3] != self._poses[:, 3]):  # a body turned: the bound does not cover it
             return False
-        moved = np.linalg.norm(now[:, :3] - before[self.far.poses][:, :3], axis=1)  # (rows, K)
+        moved = np.linalg.norm(poses[:, :3] - self._poses[:, :3], axis=1)  # (rows, K)
         return bool(np.all(self._h.T - drift[None, :] - moved >= 0.0))

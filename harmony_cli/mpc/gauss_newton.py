@@ -146,12 +146,12 @@ class GaussNewtonSolver:
         # the far rows only where a step like the last (REACH_SAFETY times it) could bring them to their bounds,
         # and again where the step taken could: the same optimum as with them (mpc/far_rows.py)
         step = self._knot_steps(REACH_SAFETY * qp.reach, free)
-        solves = 0
+        solves, (linear_lo, linear_hi) = 0, r.rows(self.problem.lb, self.problem.ub, x)
         for evaluated_now in (False, True):
             value, lower, J, evaluated = self.constraints.jacobians(x, p, self.far, None if evaluated_now else step)
             rows = KnotRows(A[0], A[1], J, self.constraints.B[1:], free)
-            lba, uba = r.rows(self.problem.lb, self.problem.ub, x)
-            lba, uba = np.concatenate([lba, _needs(lower - value, relaxed)]), np.r_[uba, np.full(value.size, np.inf)]
+            lba = np.concatenate([linear_lo, _needs(lower - value, relaxed)])
+            uba = np.r_[linear_hi, np.full(value.size, np.inf)]
             out = qp.solve(h, g, lbx, ubx, rows, lba, uba)
             solves += out.solves
             if evaluated or not out.success or self._far_clear(x, p, self._knot_steps(out.z, free)):

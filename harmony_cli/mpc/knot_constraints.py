@@ -15,7 +15,8 @@ from harmony_cli.mpc.problem import Problem
 
 class KnotConstraints:
     """Nonlinear rows h(q_k, ref_k) >= lower at the knots k >= 1 (knot 0 is the measured state) and their Jacobian
-    C = J_k (x) b_k over the position variables, from one compiled per-knot map. Rows are knot-major:
+    C = J_k (x) b_k over the position variables, from compiled per-knot maps (the far rows, if any, in one of their
+    own: far_rows.py). Rows are knot-major:
     (k - 1) * m + j. lower = min(0, h(q_0)) per constraint: a state already inside a margin (a push, a moving
     obstacle) may stay there but not go deeper, so the problem stays feasible.
 
@@ -35,13 +36,13 @@ class KnotConstraints:
         split = self.split = h.numel() - problem.reverse_rows
         J = cs.vertcat(cs.jacobian(h[:split], q), cs.jacobian(h[split:], q, {"allow_forward": False}))
         # the far rows (the arms', far_rows.py) in a map of their own, evaluated only where they could bind
-        self.far = problem.far
-        near = split if self.far is not None else h.numel()
+        self.far_rows = problem.far
+        near = split if self.far_rows is not None else h.numel()
         self._rows = Compiling(cs.Function("harmony_clearance", [q, ref], [h[:near], cs.densify(J[:near, :].T)]).map(K))
-        self._far_rows = None
-        if self.far is not None:
+        self._far_code = None
+        if self.far_rows is not None:
             rows = cs.Function("harmony_clearance_far", [q, ref], [h[split:], cs.densify(J[split:, :].T)])
-            self._far_rows = Compiling(rows.map(K))
+            self._far_code = Compiling(rows.map(K))
         self._h, self._J = np.zeros((K, self.m)), np.zeros((K, self.m, nd))
         self._values = Compiling(cs.Function("harmony_clearance_value", [q, ref], [h]).map(K))  # for `margins`
         self._symbols = q, ref, h
@@ -58,8 +59,9 @@ class KnotConstraints:
 
     @cached_property
     def far_map(self) -> Buffered:
-        assert self._far_rows is not None
-        return Buffered(self._far_rows.function)
+        """The compiled per-knot far rows and their Jacobians."""
+        assert self._far_code is not None
+        return Buffered(self._far_code.function)
 
     @cached_property
     def value_map(self) -> Buffered:
@@ -69,8 +71,8 @@ class KnotConstraints:
     @property
     def code_path(self) -> str:
         """How the rows are evaluated; waits for their C (the far rows' too: not in the loop)."""
-        if self._far_rows is not None:
-            self._far_rows.function  # noqa: B018 - waits for gcc
+        if self._far_code is not None:
+            self._far_code.function  # noqa: B018 - waits for gcc
         return code_path(self._rows.function)
 
     @cached_property
@@ -115,7 +117,7 @@ class KnotConstraints:
         K, split = self.B.shape[0], self.split
         q, ref = self.knots(x, p)
         out = self.map(i0=q, i1=p)
-        if self.far is None:
+        if self.far_rows is None:
             return out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, self.n_dof), True
         h, J = self._h, self._J
         h[:, :split], J[:, :split] = out["o0"].reshape(K, split), out["o1"].reshape(K, split, self.n_dof)

@@ -71,7 +71,7 @@ def _dropped(task: dict, steps: pd.DataFrame) -> str:
     if parts and grasp:
         parts.append(f"it was gripped {' and '.join(grasp)}")
     drop_s = _dropped_s(task, steps)
-    before = [_friction_before(steps, drop_s), _squeeze_before(steps, drop_s), _arms_before(steps, drop_s)]
+    before = [_friction_before(steps, drop_s), _squeeze_before(steps, drop_s), _links_before(steps, drop_s)]
     return "; ".join(parts + [text for text in before if parts and text])
 
 
@@ -97,7 +97,7 @@ def _squeeze_before(steps: pd.DataFrame, drop_s: float | None) -> str | None:
     return f"the pads pressed up to {pressed:.0f} N against a {reference:g} N reference"
 
 
-def _arms_before(steps: pd.DataFrame, drop_s: float | None) -> str | None:
+def _links_before(steps: pd.DataFrame, drop_s: float | None) -> str | None:
     """The robot links other than the pads the box pressed on before a drop, and how hard; None if none."""
     before = _window(steps, drop_s)
     if before is None or "box_on_robot_N" not in steps:
