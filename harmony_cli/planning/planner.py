@@ -11,6 +11,7 @@ import numpy as np
 from harmony_cli.maths.rotations import heading_of
 from harmony_cli.maths.shapes import table_shape, table_top_pose
 from harmony_cli.planning.clear_goal import FARTHEST, cleared
+from harmony_cli.planning.grip_force import GripForce, GripLaw
 from harmony_cli.planning.hand_mpc import HandMPC
 from harmony_cli.planning.hand_plan import HandState, Outcome, PlannerResult, planned_obstacles
 from harmony_cli.planning.plan_base import PlannedBase
@@ -63,6 +64,7 @@ class Planner:
         box = scenario.world.box
         self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
         self.box_drop: float | None = None  # the box's bottom below the hands' midpoint, measured at the grasp
+        self.grip = _grip(scenario)
         self.phase: ActivePhase | None = None
         self.goal = np.zeros(0)  # hand goals of the current phase (hands, 3)
         self.result: PlannerResult | None = None
@@ -105,6 +107,9 @@ class Planner:
         force_ref = None
         if self.schedule.admittance.enabled:
             force_ref = np.tile(self.schedule.force(t + knot_times), (len(self.schedule.hand_names), 1))
+            if self.grip is not None:
+                force_ref = self.grip(force_ref, obs.wrenches, holding)
+                log["grip_friction_used"] = self.grip.friction_used
         base = obs.q[self.base_xy]
         target = self.stance_plan.chest(active.index, positions, base)
         chest_ref = self.chest_ramp(target, t, knot_times, obs.q[self.chest])
@@ -173,6 +178,15 @@ class Planner:
         return self.planner.step(
             t, state, self.goal, active.end, active.index, self.box_radius if holding else None, self.box_drop or 0.0
         )
+
+
+def _grip(scenario: Scenario) -> GripForce | None:
+    """The squeeze law while the box is held (None: no box, no admittance loop, or a zero margin)."""
+    box, admittance = scenario.world.box, scenario.admittance
+    if box is None or not admittance.enabled or admittance.grip_margin <= 0.0:
+        return None
+    law = GripLaw(box.mass, box.friction, admittance.grip_margin, admittance.grip_scale, admittance.force_filter)
+    return GripForce(law, scenario.sim.control_dt)
 
 
 def _grip_width(scenario: Scenario, robot: Robot, hands: np.ndarray) -> float:

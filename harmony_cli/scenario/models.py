@@ -107,6 +107,16 @@ class AdmittanceSpec(Strict):
         "sees; 0: raw. Without it the loop chatters at half the control rate against stiff "
         "contact (the offset is a static map of the force, loop gain k_contact / K > 1)",
     )
+    grip_margin: float = Field(
+        2.0,
+        ge=0,
+        description="while a box is held, the squeeze gives the pads this many times the friction the load the "
+        "wrists measure along their faces needs (and the box's weight); 0: the written force only "
+        "(planning/grip_force.py)",
+    )
+    grip_scale: float = Field(
+        2.0, ge=1, description="the most a pad squeezes while a box is held, as a multiple of the written force"
+    )
     max_offset: PositiveFloat = Field(0.05, description="bound on the compliant offset [m]")
     max_offset_rate: PositiveFloat = Field(0.5, description="bound on its rate [m/s]")
 
