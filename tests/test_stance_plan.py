@@ -109,15 +109,27 @@ def test_a_place_reached_only_inside_the_cylinder_s_margin_lowers_that_margin_in
 
 
 def test_a_chest_posture_that_ends_turns_back_no_faster_than_the_rate():
-    ramp, knots, dt = ChestRamp(0.5), np.linspace(0.0, 5.0, 26), 0.02
+    ramp, knots, dt = ChestRamp(0.5, 0.1), np.linspace(0.0, 5.0, 26), 0.02
     posture = np.full((1, knots.size), 1.4)
     assert ramp(None, 7.0, knots, np.zeros(1)) is None  # no posture yet: straight, nothing to ramp
     first = ramp(posture, 7.0, knots, np.full(1, 0.1))
     np.testing.assert_allclose(first[0], np.minimum(0.1 + 0.5 * knots, 1.4))  # from the measured chest, at the rate
-    ramp = ChestRamp(0.5)
+    ramp = ChestRamp(0.5, 0.1)
     t, refs = 0.0, []
     while (ref := ramp(posture if t < 3.0 else None, t, knots, np.zeros(1))) is not None:
         refs.append(ref[0, 0])
         t += dt
     assert max(refs) == pytest.approx(1.4) and np.abs(np.diff(refs)).max() <= 0.5 * dt + 1e-12
     assert t == pytest.approx(3.0 + 1.4 / 0.5, abs=2 * dt)  # back to straight, then None again
+
+
+def test_a_chest_turned_under_a_held_box_turns_back_at_the_held_rate():
+    ramp, knots, dt = ChestRamp(0.5, 0.1), np.linspace(0.0, 5.0, 26), 0.02
+    assert ramp(None, 0.0, knots, np.zeros(1), held=True) is None  # straight: nothing to ramp
+    first = ramp(None, 0.0, knots, np.full(1, 0.3), held=True)  # turned with no posture: from where it is
+    np.testing.assert_allclose(first[0], np.maximum(0.3 - 0.1 * knots, 0.0))
+    t, refs = dt, [first[0, 0]]
+    while (ref := ramp(None, t, knots, np.zeros(1), held=True)) is not None:
+        refs.append(ref[0, 0])
+        t += dt
+    assert np.abs(np.diff(refs)).max() <= 0.1 * dt + 1e-12 and t == pytest.approx(0.3 / 0.1, abs=2 * dt)

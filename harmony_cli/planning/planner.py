@@ -59,7 +59,8 @@ class Planner:
         ]
         self.base_xy = list(robot.base_joints[:2])  # where the base stands picks a chest posture (stance_plan.py)
         self.chest = [robot.index(j) for j in scenario.robot.chest_joints]
-        self.chest_ramp = ChestRamp(scenario.planner.max_yaw_rate)  # the chest turns no faster than the hands
+        # the chest turns no faster than the hands, and slower under a held box
+        self.chest_ramp = ChestRamp(scenario.planner.max_yaw_rate, scenario.planner.held_chest_rate)
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
         box = scenario.world.box
         self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
@@ -112,7 +113,7 @@ class Planner:
                 log["grip_friction_used"] = self.grip.friction_used
         base = obs.q[self.base_xy]
         target = self.stance_plan.chest(active.index, positions, base)
-        chest_ref = self.chest_ramp(target, t, knot_times, obs.q[self.chest])
+        chest_ref = self.chest_ramp(target, t, knot_times, obs.q[self.chest], holding)
         # the base's stance only where its cost is on (mpc.weights.stance): nothing to compute each step otherwise
         pull = self.scenario.mpc.weights.stance > 0.0
         stance = self.stance_plan.stance(active.index, positions, base) if pull else None

@@ -98,22 +98,26 @@ class StancePlan:
 class ChestRamp:
     """The chest reference in time: it never steps. A posture that starts or ends (a blocked group's phases begin
     or end, the pose nearest the base changes) moves the reference from where it was at most `rate` [rad/s] per
-    second of the whole-body MPC's knot times, so a chest turned at a blocked stance turns back at a bounded rate
-    while the hands hold the box, not in one control step. None until a posture is first asked for (straight:
-    nothing to ramp)."""
+    second of the whole-body MPC's knot times, and at most `held_rate` while the hands hold the box: a chest that
+    turns under a held box moves both arms round it, which the whole-body MPC tracks with a lag that shears the
+    grip, so a chest turned at the grasp comes back slowly. None while the chest is straight and no posture is
+    asked for (nothing to ramp)."""
 
-    def __init__(self, rate: float):
-        self.rate = rate
+    def __init__(self, rate: float, held_rate: float):
+        self.rate, self.held_rate = rate, held_rate
         self._last: tuple[float, np.ndarray] | None = None  # when the last reference was asked for, its first knot
 
-    def __call__(self, target: np.ndarray | None, t: float, knot_times: np.ndarray, measured: np.ndarray):
-        """The reference (chest joints, K) at t + `knot_times` towards `target` (None: straight), within `rate`
-        of the last reference's first knot (the `measured` chest angles the first time) over the time since."""
-        if target is None and self._last is None:
+    def __call__(
+        self, target: np.ndarray | None, t: float, knot_times: np.ndarray, measured: np.ndarray, held: bool = False
+    ):
+        """The reference (chest joints, K) at t + `knot_times` towards `target` (None: straight), within the rate
+        (`held`: the box is held) of the last reference's first knot (the `measured` chest angles the first time)
+        over the time since."""
+        if target is None and self._last is None and not (held and measured.any()):
             return None
         since, now = (t, measured.astype(float)) if self._last is None else self._last
         goal = np.zeros((now.size, knot_times.size)) if target is None else target
-        reach = self.rate * (knot_times - knot_times[0] + t - since)
+        reach = (self.held_rate if held else self.rate) * (knot_times - knot_times[0] + t - since)
         ramped = now[:, None] + np.clip(goal - now[:, None], -reach, reach)
         if target is None and not ramped.any():
             self._last = None  # back to straight: as if no posture had been asked for

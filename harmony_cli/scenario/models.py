@@ -69,6 +69,9 @@ class PlannerSpec(Strict):
     max_acceleration: tuple[float, float, float] = Field((1.0, 1.0, 1.0), description="[m/s^2]")
     max_yaw_rate: PositiveFloat = Field(0.8, description="heading rate bound [rad/s]")
     max_yaw_acceleration: PositiveFloat = Field(1.5, description="[rad/s^2]")
+    held_chest_rate: PositiveFloat = Field(
+        0.2, description="the most the chest's reference turns while the box is held [rad/s] (stance_plan.ChestRamp)"
+    )
     samples: int = Field(20, ge=2, le=400, description="sample times for clearance and facing")
     hand_radius: float = Field(0.08, ge=0, description="added to every obstacle margin for a hand centre [m]")
     period: int = Field(1, ge=1, description="re-plan every `period` control steps")
