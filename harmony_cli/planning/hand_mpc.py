@@ -22,7 +22,7 @@ import numpy as np
 from harmony_cli.maths.bezier import shift_matrix
 from harmony_cli.mpc.problem import NoPlanToHold
 from harmony_cli.planning.hand_plan import Ends, HandState, Obstacle, Outcome, Plan, PlannerResult
-from harmony_cli.planning.hand_sqp import HandSQP
+from harmony_cli.planning.hand_sqp import HandSQP, rate_bounds
 from harmony_cli.planning.phase_start import first_plan, on_route_plan
 from harmony_cli.planning.plan_base import PlannedBase
 from harmony_cli.planning.plan_checks import goal_reliefs
@@ -52,8 +52,7 @@ class HandMPC:
         self.heading_offset = heading_offset  # heading = angle(p_1 - p_0) + offset (pads face each other)
         self.sqp = HandSQP(spec, obstacles, heading_offset, base, ceiling)
         self.M = spec.control_points
-        self._speeds = np.r_[spec.max_speed, spec.max_speed, spec.max_yaw_rate]
-        self._accelerations = np.r_[spec.max_acceleration, spec.max_acceleration, spec.max_yaw_acceleration]
+        self._speeds, self._accelerations = rate_bounds(spec)
         self.C: np.ndarray | None = None  # the last good plan's control points, over [t_plan, t_plan + T_plan]
         self.phase: int | None = None
         self.t_plan, self.T_plan = 0.0, 1.0
@@ -70,6 +69,13 @@ class HandMPC:
     def route_pending(self) -> bool:
         """Whether the next step tries a route (the phase's first plan wanted one)."""
         return self._route_next
+
+    def set_bounds(self, speeds: np.ndarray, accelerations: np.ndarray) -> None:
+        """The rate bounds per curve (7,) of the plans from now on (a held box's, planning/grip_force.py): a plan
+        that cannot meet them by its end takes the closed-form horizon."""
+        if not (np.array_equal(speeds, self._speeds) and np.array_equal(accelerations, self._accelerations)):
+            self._speeds, self._accelerations = speeds, accelerations
+            self.sqp.set_bounds(speeds, accelerations)
 
     def goal_heading(self, goal: np.ndarray, heading_now: float) -> float:
         d = goal[1] - goal[0]

@@ -69,10 +69,8 @@ class HandSQP:
         # bound rows: hodograph control points of velocity and acceleration, per curve (bounds scale with T)
         self.A = np.vstack([np.kron(eye, D1), np.kron(eye, D2)])
         self.keep = np.any(self.A[:, self.free.ravel()] != 0, axis=1)  # rows with a free variable
-        n1, n2 = D1.shape[0], D2.shape[0]
-        v = self._speeds = np.r_[spec.max_speed, spec.max_speed, spec.max_yaw_rate]
-        a = self._accelerations = np.r_[spec.max_acceleration, spec.max_acceleration, spec.max_yaw_acceleration]
-        self._rate_limits = np.r_[np.repeat(v, n1), np.repeat(a, n2)][self.keep]
+        n1, n2 = self._differences = D1.shape[0], D2.shape[0]
+        self.set_bounds(*rate_bounds(spec))
         self._rate_order = np.r_[np.ones(ROWS * n1), 2 * np.ones(ROWS * n2)][self.keep]
         self.n_keep, self.n_lin = int(self.keep.sum()), self.J_lin.shape[0]
         self.n_points = 3  # hand 0, hand 1, the carried object (midpoint)
@@ -86,6 +84,11 @@ class HandSQP:
         self._points = np.zeros((self.n_points * s.size, 3))  # their points, per obstacle
         self.reliefs = np.zeros(len(obstacles))
         self._bind_buffers()
+
+    def set_bounds(self, speeds: np.ndarray, accelerations: np.ndarray) -> None:
+        """The speed and acceleration bounds per curve (7,) of the plans from now on."""
+        n1, n2 = self._differences
+        self._rate_limits = np.r_[np.repeat(speeds, n1), np.repeat(accelerations, n2)][self.keep]
 
     @property
     def path(self) -> str:
@@ -220,3 +223,9 @@ class HandSQP:
             bounds[:] = need - dist
             margins.append(float((dist - need).min()))
         return min(margins)
+
+
+def rate_bounds(spec: PlannerSpec) -> tuple[np.ndarray, np.ndarray]:
+    """The planner's speed and acceleration bounds per curve (both hands' x, y, z, then the heading)."""
+    speeds = np.r_[spec.max_speed, spec.max_speed, spec.max_yaw_rate]
+    return speeds, np.r_[spec.max_acceleration, spec.max_acceleration, spec.max_yaw_acceleration]

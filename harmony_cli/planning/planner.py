@@ -14,6 +14,7 @@ from harmony_cli.planning.clear_goal import FARTHEST, cleared
 from harmony_cli.planning.grip_force import GripForce, GripLaw
 from harmony_cli.planning.hand_mpc import HandMPC
 from harmony_cli.planning.hand_plan import HandState, Outcome, PlannerResult, planned_obstacles
+from harmony_cli.planning.hand_sqp import rate_bounds
 from harmony_cli.planning.plan_base import PlannedBase
 from harmony_cli.planning.plan_seed import Ground
 from harmony_cli.planning.stance_check import base_bodies, home_hands, no_pose, written_stances
@@ -65,7 +66,7 @@ class Planner:
         box = scenario.world.box
         self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
         self.box_drop: float | None = None  # the box's bottom below the hands' midpoint, measured at the grasp
-        self.grip = _grip(scenario)
+        self.grip = _grip(scenario, width)
         self.phase: ActivePhase | None = None
         self.goal = np.zeros(0)  # hand goals of the current phase (hands, 3)
         self.result: PlannerResult | None = None
@@ -110,7 +111,7 @@ class Planner:
             force_ref = np.tile(self.schedule.force(t + knot_times), (len(self.schedule.hand_names), 1))
             if self.grip is not None:
                 force_ref = self.grip(force_ref, obs.wrenches, holding)
-                log["grip_friction_used"] = self.grip.friction_used
+                log |= {"grip_friction_used": self.grip.friction_used, "carry_pace": self.grip.pace}
         base = obs.q[self.base_xy]
         target = self.stance_plan.chest(active.index, positions, base)
         chest_ref = self.chest_ramp(target, t, knot_times, obs.q[self.chest], holding)
@@ -173,6 +174,10 @@ class Planner:
             state = HandState(obs.hand_positions, rates[:6].reshape(2, 3), heading, rates[6])
         else:
             state = HandState(obs.hand_positions, obs.hand_velocities, heading, obs.heading_rate)
+        speeds, accelerations = rate_bounds(self.scenario.planner)
+        if holding and self.grip is not None and active.spec.force > 0.0:
+            speeds, accelerations = self.grip.bounds(speeds, accelerations, active.spec.force)
+        self.planner.set_bounds(speeds, accelerations)
         box = self.scenario.world.box
         if holding and self.box_drop is None and box is not None and obs.box_position is not None:
             self.box_drop = obs.hand_positions[:, 2].mean() - (obs.box_position[2] - box.size[2] / 2)
@@ -181,12 +186,14 @@ class Planner:
         )
 
 
-def _grip(scenario: Scenario) -> GripForce | None:
-    """The squeeze law while the box is held (None: no box, no admittance loop, or a zero margin)."""
-    box, admittance = scenario.world.box, scenario.admittance
-    if box is None or not admittance.enabled or admittance.grip_margin <= 0.0:
+def _grip(scenario: Scenario, width: float) -> GripForce | None:
+    """The squeeze and the carry's bounds while the box is held with the pads `width` [m] apart (None: no box, no
+    admittance loop, or a zero margin)."""
+    box, a = scenario.world.box, scenario.admittance
+    if box is None or not a.enabled or a.grip_margin <= 0.0:
         return None
-    law = GripLaw(box.mass, box.friction, admittance.grip_margin, admittance.grip_scale, admittance.force_filter)
+    size = (float(box.size[0]), float(box.size[1]))
+    law = GripLaw(box.mass, size, width, box.friction, a.grip_margin, a.grip_scale, a.force_filter)
     return GripForce(law, scenario.sim.control_dt)
 
 
