@@ -29,6 +29,8 @@ GRAVITY = 9.81
 RISE, FALL = 50.0, 5.0  # [N/s] the most the squeeze reference rises and falls per second
 SLOWEST, RECOVER = 0.25, 0.5  # the least pace, and how fast [1/s] the pace returns to 1
 LEAST = 0.05  # the share of the planner's acceleration bounds kept when the grip has no friction to spare
+# the most friction used a step adds to the low-pass: a pad that barely touches reads a huge share for a step
+MOST_USED = 2.0
 
 
 @dataclass(frozen=True)
@@ -90,7 +92,7 @@ class GripForce:
             return written
         pressing = np.maximum(-wrenches[:, 2], 1e-6)
         self.friction_used = float((tangential / (self.law.friction * pressing)).max())
-        self._used += blend * (min(self.friction_used, 2.0) - self._used)
+        self._used += blend * (min(self.friction_used, MOST_USED) - self._used)
         slowed = float(np.clip((1.0 - self._used) / (1.0 - self.law.slow), SLOWEST, 1.0))
         self.pace = min(slowed, self.pace + RECOVER * self.dt)
         wanted = min(max(floor, self.law.needed(self._load)), self.law.scale * floor)

@@ -67,6 +67,7 @@ class Planner:
         self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
         self.box_drop: float | None = None  # the box's bottom below the hands' midpoint, measured at the grasp
         self.grip = _grip(scenario, width)
+        self.rates = rate_bounds(scenario.planner)  # the hands' speed and acceleration bounds, box held or not
         self.phase: ActivePhase | None = None
         self.goal = np.zeros(0)  # hand goals of the current phase (hands, 3)
         self.result: PlannerResult | None = None
@@ -174,7 +175,7 @@ class Planner:
             state = HandState(obs.hand_positions, rates[:6].reshape(2, 3), heading, rates[6])
         else:
             state = HandState(obs.hand_positions, obs.hand_velocities, heading, obs.heading_rate)
-        speeds, accelerations = rate_bounds(self.scenario.planner)
+        speeds, accelerations = self.rates
         if holding and self.grip is not None and active.spec.force > 0.0:
             speeds, accelerations = self.grip.bounds(speeds, accelerations, active.spec.force)
         self.planner.set_bounds(speeds, accelerations)
