@@ -9,7 +9,7 @@ from harmony_cli.maths.bezier import difference_matrix, evaluate
 from harmony_cli.maths.shapes import Shape
 from harmony_cli.planning.hand_mpc import HandMPC
 from harmony_cli.planning.hand_plan import HandState, Obstacle
-from harmony_cli.planning.plan_horizon import least_horizon, meets
+from harmony_cli.planning.plan_horizon import least_horizon, meets, retimed
 from harmony_cli.scenario import PlannerSpec
 
 SPEC = PlannerSpec()
@@ -236,6 +236,40 @@ def test_the_closed_form_horizon_is_the_least_at_which_a_plan_of_its_shapes_meet
         curves = (start, velocity, goal, speeds, accelerations, SPEC.control_points)
         T = least_horizon(*curves)
         assert meets(T, *curves) and (T == 0.0 or not meets(0.99 * T, *curves))
+
+
+def _within_bounds(C: np.ndarray, velocity: np.ndarray, T: float, speeds, accelerations) -> bool:
+    """Whether `C` over `T`, its second point at the start `velocity`'s, meets the bounds at every hodograph point."""
+    P = C.copy()
+    P[:, 1] = C[:, 0] + velocity * T / (C.shape[1] - 1)
+    v, a = P @ difference_matrix(P.shape[1], 1, T).T, P @ difference_matrix(P.shape[1], 2, T).T
+    return bool(np.all(np.abs(v) <= speeds[:, None] + 1e-9) and np.all(np.abs(a) <= accelerations[:, None] + 1e-9))
+
+
+def test_a_path_re_timed_in_closed_form_meets_the_bounds_there_and_not_one_percent_sooner():
+    rng = np.random.default_rng(11)
+    bounds = (_speed_limits(), np.r_[SPEC.max_acceleration, SPEC.max_acceleration, SPEC.max_yaw_acceleration])
+    for _ in range(200):
+        C = np.cumsum(rng.normal(size=(7, SPEC.control_points)) * rng.uniform(0.0, 0.5), axis=1)
+        C[:, -3:] = C[:, -3:-2]  # at rest at the goal
+        velocity = rng.uniform(-0.9, 0.9, 7) * bounds[0]
+        T = retimed(C, velocity, *bounds)
+        assert _within_bounds(C, velocity, T, *bounds) and _within_bounds(C, velocity, 1.5 * T, *bounds)
+        assert T == 0.0 or not _within_bounds(C, velocity, 0.99 * T, *bounds)
+
+
+def test_a_plan_slowed_by_tighter_bounds_returns_to_its_phase_s_end_when_they_are_lifted():
+    goal = START + [2.0, 0.0, 0.0]
+    planner, first = _plan(goal=goal, phase_end=10.0)
+    assert first.success and first.plan.horizon == pytest.approx(10.0)
+    speeds, accelerations = planner._speeds, planner._accelerations
+    planner.set_bounds(0.1 * speeds, 0.01 * accelerations)  # the pads slip: the carry slows to a crawl
+    slowed = planner.step(0.5, HandState(START, np.zeros((2, 3)), 0.0), goal, 10.0, 0)
+    assert slowed.success and slowed.plan.start + slowed.plan.horizon > 15.0
+    planner.set_bounds(speeds, accelerations)
+    state = HandState(slowed.plan.sample(np.array([1.0]))[0][0], np.zeros((2, 3)), 0.0)
+    back = planner.step(1.0, state, goal, 10.0, 0)
+    assert back.success and back.plan.start + back.plan.horizon == pytest.approx(10.0)
 
 
 NEAR_START = Obstacle(Shape("cylinder", np.array([0.76, 0.5, 1.0]), 0.0, np.array([0.3, 0.3, 1.0])), CLEARANCE)

@@ -5,6 +5,8 @@ iteration) on every other step.
 A phase's first plan's horizon is the phase's remaining time, or, where that is too short for the rate bounds from
 the measured state, the least that is long enough, in closed form (plan_horizon.py); later plans keep its end
 while its QP is feasible, and take the closed-form horizon when the hands have fallen too far behind to meet it.
+A plan that runs past its phase's end comes back to the earliest end its path meets the bounds by, never before
+the phase's: a carry slowed for a moment (grip_force.py) does not stay slow.
 Global guidance: a local SQP linearised at the straight line cannot find its way round an obstacle on it. A
 phase's first plan that does not converge, falls short of a clearance or splits the hands asks for the SQP from
 the straight line moved onto the shortest planar route round obstacles and tables, wide enough for the base
@@ -26,13 +28,14 @@ from harmony_cli.planning.hand_sqp import HandSQP, rate_bounds
 from harmony_cli.planning.phase_start import first_plan, on_route_plan
 from harmony_cli.planning.plan_base import PlannedBase
 from harmony_cli.planning.plan_checks import goal_reliefs
-from harmony_cli.planning.plan_horizon import least_horizon, meets
+from harmony_cli.planning.plan_horizon import least_horizon, meets, retimed
 from harmony_cli.planning.plan_seed import Ground, straight_to, warm_outlines
 
 if TYPE_CHECKING:
     from harmony_cli.scenario.models import PlannerSpec
 
 MAX_STRETCH = 5.0  # the longest horizon as a multiple of the phase's remaining time
+RETIME_MARGIN = 1.1  # a plan re-timed to its bounds takes this much more than the least horizon
 
 
 class HandMPC:
@@ -102,15 +105,14 @@ class HandMPC:
         ends = (state, goal, self.goal_heading(goal, state.heading))
         previous = self.C if phase == self.phase else None
         fresh = previous is None
-        T = self.horizon(ends, phase_end - t) if fresh else max(phase_end, self.t_plan + self.T_plan) - t
-        T = max(T, self.spec.min_horizon)
         if previous is None:  # straight line to the goal, then full SQP
-            C = straight_to(ends, self.M)
-            iterations = self.spec.phase_iterations
+            T, C, iterations = self.horizon(ends, phase_end - t), straight_to(ends, self.M), self.spec.phase_iterations
         else:  # the previous plan from now on (de Casteljau), re-timed to the new horizon
             tau = min(max((t - self.t_plan) / self.T_plan, 0.0), 0.99)  # np.clip costs ~4 us on a float
             C = previous @ shift_matrix(self.M, tau) if tau > 0 else previous.copy()
             iterations = self.spec.iterations
+            T = self._kept_horizon(C, state, phase_end - t, self.t_plan + self.T_plan - t)
+        T = max(T, self.spec.min_horizon)
         width = float(np.linalg.norm(goal[1] - goal[0]))
         key = (phase, carried is None, goal.tobytes())  # the goal's reliefs: once a phase
         if key != self._relief_key:
@@ -143,11 +145,22 @@ class HandMPC:
             plan, outcome, solved.iterations, elapsed, solved.clearance, solved.routed, solved.shortfall
         )
 
+    def _kept_horizon(self, C: np.ndarray, state: HandState, remaining: float, left: float) -> float:
+        """A later plan's horizon: the phase's `remaining` time, or, for a plan `left` [s] to run past the phase's
+        end (stretched for slower bounds, or behind), the least over which the same path meets the bounds now
+        (plan_horizon.retimed, with a margin) when that is sooner: a plan slowed once returns to its phase's
+        pace when its bounds allow."""
+        if left <= remaining:
+            return remaining
+        velocity = np.r_[state.velocities.ravel(), state.heading_rate]
+        least = RETIME_MARGIN * retimed(C, velocity, self._speeds, self._accelerations)
+        return min(left, max(remaining, least))
+
     def horizon(self, ends: Ends, remaining: float) -> float:
         """A phase's first plan's horizon: the phase's remaining time (at least min_horizon), or the least that
         meets the rate bounds from the measured state when that is longer (plan_horizon.py), at most MAX_STRETCH
-        times it. Later plans keep the first's end (or the phase's, if later): the last plan from now on meets the
-        bounds over it."""
+        times it. Later plans keep the first's end (or the phase's, if later; _kept_horizon): the last plan from now on
+        meets the bounds over it."""
         T = max(remaining, self.spec.min_horizon)
         state, goal, heading = ends
         curves = (

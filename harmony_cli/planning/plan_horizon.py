@@ -90,3 +90,19 @@ def _quadratic(alpha: np.ndarray, beta: np.ndarray, gamma) -> np.ndarray:
         real = disc >= 0.0
         out[real] = np.maximum(out[real], (-b[real] + np.sqrt(disc[real])) / (2.0 * gamma[real]))
     return out
+
+
+def retimed(C: np.ndarray, velocity: np.ndarray, speed, acceleration) -> float:
+    """The least horizon [s] over which the curves with control points `C` (curves, M) meet |speed| <= `speed`
+    and |acceleration| <= `acceleration` (curves,) at every hodograph control point, their second control point
+    moved to C_0 + `velocity` T / n as the SQP fixes it (the start velocity kept): the same path, re-timed
+    uniformly (inf when the start velocity itself is above its bound)."""
+    n = C.shape[1] - 1
+    alpha, beta = C.copy(), np.zeros_like(C)
+    alpha[:, 1], beta[:, 1] = C[:, 0], velocity / n  # P_k = alpha_k + beta_k T
+    per_curve = (np.asarray(speed, dtype=float)[:, None], np.asarray(acceleration, dtype=float)[:, None])
+    d1a, d1b = n * np.diff(alpha, axis=1), n * np.diff(beta, axis=1)
+    d2a, d2b = (n - 1) * np.diff(d1a, axis=1), (n - 1) * np.diff(d1b, axis=1)
+    speeds = _linear(d1a, d1b, np.broadcast_to(per_curve[0], d1a.shape))
+    accelerations = _quadratic(d2a, d2b, np.broadcast_to(per_curve[1], d2a.shape))
+    return float(max(speeds.max(initial=0.0), accelerations.max(initial=0.0)))
