@@ -272,6 +272,23 @@ def test_a_plan_slowed_by_tighter_bounds_returns_to_its_phase_s_end_when_they_ar
     assert back.success and back.plan.start + back.plan.horizon == pytest.approx(10.0)
 
 
+def test_hands_faster_than_a_tightened_speed_bound_brake_at_the_acceleration_bound_within_the_phase():
+    goal = START + [1.5, 0.0, 0.0]
+    planner, first = _plan(goal=goal, phase_end=6.0)
+    speeds, accelerations = planner._speeds, 0.3 * planner._accelerations
+    fast = HandState(START, np.tile([0.8, 0.0, 0.0], (2, 1)), 0.0)  # both hands at 0.8 m/s along x
+    planner.set_bounds(0.25 * speeds, accelerations)  # the carry slows to a quarter of its speed
+    slowed = planner.step(0.5, fast, goal, 6.0, 0)
+    assert first.success and slowed.success and slowed.plan.horizon == pytest.approx(5.5)  # no stretch needed
+    C, T = slowed.plan.control_points, slowed.plan.horizon
+    velocity, acceleration = C @ difference_matrix(C.shape[1], 1, T).T, C @ difference_matrix(C.shape[1], 2, T).T
+    assert velocity[0, 0] == pytest.approx(0.8)  # from the measured speed
+    assert np.all(np.abs(acceleration) <= accelerations[:, None] + 1e-6)
+    # each hodograph point within the slower bound or what braking at the acceleration bound leaves of 0.8 m/s
+    brake = 0.8 - np.arange(velocity.shape[1]) * accelerations[0] * T / (C.shape[1] - 2)
+    assert np.all(np.abs(velocity[:6]) <= np.maximum(0.25 * speeds[:6, None], brake) + 1e-6)
+
+
 NEAR_START = Obstacle(Shape("cylinder", np.array([0.76, 0.5, 1.0]), 0.0, np.array([0.3, 0.3, 1.0])), CLEARANCE)
 
 

@@ -17,7 +17,8 @@ which the weight takes m g / 2; what is left bounds the box's horizontal acceler
 / m), its vertical one (2 C / m - g) and its yaw acceleration (the pads' opposite tangential forces at half the
 grip's width apart against the box's inertia). And a pace: while the wrists see more than `SLOW` of the friction
 used (halfway between what the margin leaves and sliding), the hands' speed bounds shrink towards `SLOWEST` of
-theirs and their acceleration bounds with its square; the pace comes back at `RECOVER` per second."""
+theirs (their acceleration bounds stay the grip's: slowing down needs them); the pace comes back at `RECOVER` per
+second."""
 
 from __future__ import annotations
 
@@ -106,4 +107,4 @@ class GripForce:
         horizontal, vertical, yaw = self.law.accelerations(written)
         grip = np.array([horizontal, horizontal, vertical] * 2 + [yaw])
         held = np.clip(grip, LEAST * accelerations, accelerations)
-        return self.pace * speeds, self.pace**2 * held
+        return self.pace * speeds, held

@@ -72,6 +72,12 @@ class HandSQP:
         n1, n2 = self._differences = D1.shape[0], D2.shape[0]
         self.set_bounds(*rate_bounds(spec))
         self._rate_order = np.r_[np.ones(ROWS * n1), 2 * np.ones(ROWS * n2)][self.keep]
+        # the speed rows' curve and hodograph column, and each curve's first (fixed) hodograph point: the brake
+        columns = np.r_[np.tile(np.arange(n1), ROWS), -np.ones(ROWS * n2, dtype=int)][self.keep]
+        self._speed_rows = np.flatnonzero(columns >= 0)
+        self._speed_curve = (np.flatnonzero(self.keep)[self._speed_rows] // n1).astype(int)
+        self._speed_column = columns[self._speed_rows]
+        self._first_speed = np.arange(ROWS) * n1
         self.n_keep, self.n_lin = int(self.keep.sum()), self.J_lin.shape[0]
         self.n_points = 3  # hand 0, hand 1, the carried object (midpoint)
         n_rows = self.n_keep + len(obstacles) * self.n_points * s.size
@@ -89,6 +95,7 @@ class HandSQP:
         """The speed and acceleration bounds per curve (7,) of the plans from now on."""
         n1, n2 = self._differences
         self._rate_limits = np.r_[np.repeat(speeds, n1), np.repeat(accelerations, n2)][self.keep]
+        self._accelerations = np.asarray(accelerations, dtype=float)
 
     @property
     def path(self) -> str:
@@ -143,6 +150,15 @@ class HandSQP:
                 break
         return Solved(C, T, outcome, it, clearance, shortfall, base_clearance)
 
+    def _brake(self, limit: np.ndarray, start: np.ndarray, T: float) -> None:
+        """Raise the speed rows' `limit` (s-units) to what braking from each curve's `start` speed (s-units, fixed
+        by the measured velocity) at the acceleration bound leaves at each hodograph point: bounds that tighten
+        below the hands' speed (a slower carry) slow the plan as fast as they allow, and the QP stays feasible."""
+        n = self.M - 1
+        brake = start[self._speed_curve] - self._speed_column * self._accelerations[self._speed_curve] * T**2 / (n - 1)
+        np.maximum(limit[self._speed_rows], brake, out=brake)
+        limit[self._speed_rows] = brake
+
     def _sqp_step(self, C: np.ndarray, t: float, T: float, carried, width: float):
         """One Gauss-Newton QP over the free control points of the plan over [t, t + T] and the obstacles' slacks:
         (step or None when the QP fails, predicted clearance, the base footprint's predicted margin, the largest
@@ -163,7 +179,9 @@ class HandSQP:
                 self._H += J.T @ J
                 args["g"][: self.n_free] += J.T @ r
         limit = self._rate_limits * T**self._rate_order  # D^k P are s-derivatives: time derivative = D^k P / T^k
-        Ax = (self.A @ x)[self.keep]
+        AX = self.A @ x
+        Ax = AX[self.keep]
+        self._brake(limit, np.abs(AX[self._first_speed]), T)
         args["lba"][: self.n_keep], args["uba"][: self.n_keep] = -limit - Ax, limit - Ax
         clearance = self._clearance_rows(curves, t, T, carried)
         args["ubx"][: self.n_free][self._heights] = (
