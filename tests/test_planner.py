@@ -9,6 +9,7 @@ from harmony_cli.maths.bezier import difference_matrix, evaluate
 from harmony_cli.maths.shapes import Shape
 from harmony_cli.planning.hand_mpc import HandMPC
 from harmony_cli.planning.hand_plan import HandState, Obstacle
+from harmony_cli.planning.hand_sqp import rate_bounds
 from harmony_cli.planning.plan_horizon import least_horizon, meets, retimed
 from harmony_cli.scenario import PlannerSpec
 
@@ -248,7 +249,7 @@ def _within_bounds(C: np.ndarray, velocity: np.ndarray, T: float, speeds, accele
 
 def test_a_path_re_timed_in_closed_form_meets_the_bounds_there_and_not_one_percent_sooner():
     rng = np.random.default_rng(11)
-    bounds = (_speed_limits(), np.r_[SPEC.max_acceleration, SPEC.max_acceleration, SPEC.max_yaw_acceleration])
+    bounds = rate_bounds(SPEC)
     for _ in range(200):
         C = np.cumsum(rng.normal(size=(7, SPEC.control_points)) * rng.uniform(0.0, 0.5), axis=1)
         C[:, -3:] = C[:, -3:-2]  # at rest at the goal
@@ -262,7 +263,7 @@ def test_a_plan_slowed_by_tighter_bounds_returns_to_its_phase_s_end_when_they_ar
     goal = START + [2.0, 0.0, 0.0]
     planner, first = _plan(goal=goal, phase_end=10.0)
     assert first.success and first.plan.horizon == pytest.approx(10.0)
-    speeds, accelerations = planner._speeds, planner._accelerations
+    speeds, accelerations = rate_bounds(SPEC)
     planner.set_bounds(0.1 * speeds, 0.01 * accelerations)  # the pads slip: the carry slows to a crawl
     slowed = planner.step(0.5, HandState(START, np.zeros((2, 3)), 0.0), goal, 10.0, 0)
     assert slowed.success and slowed.plan.start + slowed.plan.horizon > 15.0
@@ -275,7 +276,8 @@ def test_a_plan_slowed_by_tighter_bounds_returns_to_its_phase_s_end_when_they_ar
 def test_hands_faster_than_a_tightened_speed_bound_brake_at_the_acceleration_bound_within_the_phase():
     goal = START + [1.5, 0.0, 0.0]
     planner, first = _plan(goal=goal, phase_end=6.0)
-    speeds, accelerations = planner._speeds, 0.3 * planner._accelerations
+    speeds, accelerations = rate_bounds(SPEC)
+    accelerations = 0.3 * accelerations
     fast = HandState(START, np.tile([0.8, 0.0, 0.0], (2, 1)), 0.0)  # both hands at 0.8 m/s along x
     planner.set_bounds(0.25 * speeds, accelerations)  # the carry slows to a quarter of its speed
     slowed = planner.step(0.5, fast, goal, 6.0, 0)

@@ -179,9 +179,9 @@ class HandSQP:
                 self._H += J.T @ J
                 args["g"][: self.n_free] += J.T @ r
         limit = self._rate_limits * T**self._rate_order  # D^k P are s-derivatives: time derivative = D^k P / T^k
-        AX = self.A @ x
-        Ax = AX[self.keep]
-        self._brake(limit, np.abs(AX[self._first_speed]), T)
+        hodographs = self.A @ x  # every curve's velocity and acceleration control points (s-units)
+        Ax = hodographs[self.keep]
+        self._brake(limit, np.abs(hodographs[self._first_speed]), T)
         args["lba"][: self.n_keep], args["uba"][: self.n_keep] = -limit - Ax, limit - Ax
         clearance = self._clearance_rows(curves, t, T, carried)
         args["ubx"][: self.n_free][self._heights] = (

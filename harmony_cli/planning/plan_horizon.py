@@ -100,9 +100,8 @@ def retimed(C: np.ndarray, velocity: np.ndarray, speed, acceleration) -> float:
     n = C.shape[1] - 1
     alpha, beta = C.copy(), np.zeros_like(C)
     alpha[:, 1], beta[:, 1] = C[:, 0], velocity / n  # P_k = alpha_k + beta_k T
-    per_curve = (np.asarray(speed, dtype=float)[:, None], np.asarray(acceleration, dtype=float)[:, None])
     d1a, d1b = n * np.diff(alpha, axis=1), n * np.diff(beta, axis=1)
     d2a, d2b = (n - 1) * np.diff(d1a, axis=1), (n - 1) * np.diff(d1b, axis=1)
-    speeds = _linear(d1a, d1b, np.broadcast_to(per_curve[0], d1a.shape))
-    accelerations = _quadratic(d2a, d2b, np.broadcast_to(per_curve[1], d2a.shape))
+    speeds = _linear(d1a, d1b, np.asarray(speed, dtype=float)[:, None])  # each curve's bound on its columns
+    accelerations = _quadratic(d2a, d2b, np.asarray(acceleration, dtype=float)[:, None])
     return float(max(speeds.max(initial=0.0), accelerations.max(initial=0.0)))
