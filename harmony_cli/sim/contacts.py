@@ -2,10 +2,10 @@
 they use and how far PyBullet's contact normals lie from the box's faces.
 
 Why: a held box is lost when the pads' friction runs out, and the friction the pads spend pushing against each other
-(one pad ahead of the other turns their squeeze into a couple) is not there to carry the box's weight. And PyBullet
-keeps a contact point from step to step with the normal it was made with: when the pads and the box turn together,
-as in a carry's turn, the normals stay behind (up to 45 deg with EVA's disc-shaped pads in pick_and_carry's
-carry) and their forces push the box sideways. A normal's angle from the nearest face of the box shows that."""
+(one pad ahead of the other turns their squeeze into a couple) is not there to carry the box's weight. A normal's
+angle from the nearest face of the box says whether the engine's contacts follow the box as it turns: with contacts
+made afresh every step (sim/world.py's BODY_FLAGS) it stays near zero; a contact kept from an earlier step keeps
+the normal it was made with and pushes the box sideways."""
 
 from __future__ import annotations
 

@@ -17,7 +17,7 @@ from harmony_cli.sim import PYBULLET_BANNER
 from harmony_cli.sim.contacts import PadContacts, pad_contacts
 from harmony_cli.sim.pushes import Pushes
 from harmony_cli.sim.touches import Touches
-from harmony_cli.sim.world import World
+from harmony_cli.sim.world import BODY_FLAGS, World
 from harmony_cli.sim.wrench import WristSensors, rotation_matrices
 
 if TYPE_CHECKING:
@@ -62,11 +62,12 @@ class Simulation:
         with captured_output() as output:  # PyBullet's C prints ('argv[0]=', URDF warnings): for run.log
             self.client = BulletClient(connection_mode=pybullet.DIRECT)
             self.client.setGravity(0, 0, -9.81)
-            self.client.setPhysicsEngineParameter(fixedTimeStep=sim_spec.physics_dt, deterministicOverlappingPairs=1)
+            self.client.setPhysicsEngineParameter(
+                fixedTimeStep=sim_spec.physics_dt, deterministicOverlappingPairs=1, enableSAT=1
+            )
             ground = self.client.createCollisionShape(pybullet.GEOM_PLANE)
             self.ground = self.client.createMultiBody(0, ground)
-            flags = pybullet.URDF_USE_INERTIA_FROM_FILE
-            self.body = self.client.loadURDF(str(robot.urdf), useFixedBase=True, flags=flags)
+            self.body = self.client.loadURDF(str(robot.urdf), useFixedBase=True, flags=BODY_FLAGS)
         self.notes = [f"pybullet: {line}" for line in PYBULLET_BANNER + output]
         by_name = {}
         for i in range(self.client.getNumJoints(self.body)):

@@ -3,11 +3,19 @@ measures (closest points).
 
 A moving obstacle is a static (massless) body put where its motion says after every physics step: kinematic,
 nothing pushes it, and closest points are measured at its true position. It has no velocity in Bullet, so a
-contact would be resolved by penetration recovery alone (the runs require clearance > 0: no contact)."""
+contact would be resolved by penetration recovery alone (the runs require clearance > 0: no contact).
+
+The robot and the box are loaded with BODY_FLAGS: their convex shapes get polyhedral features, so that (with the
+client's enableSAT) Bullet finds their contacts by the separating axis test, afresh every physics step, with normals
+along the faces as they are now and no collision margin. Without them, GJK keeps a contact point from step to step
+with the normal it was made with (behind the box's faces when pads and box turn together) and reports contacts
+1 mm before the surfaces touch."""
 
 from __future__ import annotations
 
+import tempfile
 from operator import itemgetter
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -23,10 +31,36 @@ if TYPE_CHECKING:
 
 FAR = 5.0  # [m] clearances beyond this are reported as FAR (PyBullet only searches this far)
 _distance = itemgetter(8)  # of a closest point: signed, negative inside
+# inertia as the URDF gives it; polyhedral features for the separating axis test (only loadURDF reads this flag:
+# createCollisionShape ignores it)
+BODY_FLAGS = pybullet.URDF_USE_INERTIA_FROM_FILE | pybullet.URDF_INITIALIZE_SAT_FEATURES
 
 
 def _quaternion(yaw_deg: float) -> list[float]:
     return list(pybullet.getQuaternionFromEuler([0.0, 0.0, np.deg2rad(yaw_deg)]))
+
+
+def box_urdf(size, mass: float) -> str:
+    """A URDF of one solid box of uniform density: its collision and visual shapes and its inertia about its
+    centre (what createMultiBody would compute for the same shape)."""
+    x, y, z = (float(v) for v in size)
+    ixx, iyy, izz = (mass / 12.0 * (a * a + b * b) for a, b in ((y, z), (x, z), (x, y)))
+    box = f'<geometry><box size="{x} {y} {z}"/></geometry>'
+    return (
+        '<?xml version="1.0"?>\n<robot name="box"><link name="box">'
+        f'<inertial><mass value="{mass}"/>'
+        f'<inertia ixx="{ixx}" ixy="0" ixz="0" iyy="{iyy}" iyz="0" izz="{izz}"/></inertial>'
+        f'<visual>{box}<material name="box"><color rgba="0.85 0.6 0.3 1"/></material></visual>'
+        f"<collision>{box}</collision></link></robot>\n"
+    )
+
+
+def load_box(client: BulletClient, size, mass: float, position, orientation) -> int:
+    """The box as a free body with polyhedral features (BODY_FLAGS), loaded from a URDF written for it."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "box.urdf"
+        path.write_text(box_urdf(size, mass))
+        return client.loadURDF(str(path), list(position), list(orientation), flags=BODY_FLAGS)
 
 
 class World:
@@ -46,11 +80,7 @@ class World:
         self.box = None
         if spec.box is not None:
             b = spec.box
-            shape = client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=np.asarray(b.size) / 2)
-            visual = client.createVisualShape(
-                pybullet.GEOM_BOX, halfExtents=np.asarray(b.size) / 2, rgbaColor=[0.85, 0.6, 0.3, 1]
-            )
-            self.box = client.createMultiBody(b.mass, shape, visual, b.position, _quaternion(b.yaw_deg))
+            self.box = load_box(client, b.size, b.mass, b.position, _quaternion(b.yaw_deg))
             client.changeDynamics(self.box, -1, lateralFriction=b.friction, spinningFriction=b.spinning_friction)
 
     def _table(self, t) -> list[int]:
