@@ -83,6 +83,8 @@ class Planner:
             if obs.box_position is not None:
                 poses["box"] = (obs.box_position, obs.box_yaw)
             self.phase, self.goal = active, self.schedule.goal(active.spec, obs.hand_positions, poses)
+            if self.schedule.holding(t) and active.spec.force > 0.0:  # the force loop sets the grip's width
+                self.goal = _at_width(self.goal, float(np.linalg.norm(obs.hand_positions[1] - obs.hand_positions[0])))
             if self._free_handed(self.goal, obs.box_position, t):
                 self.goal = cleared(self.goal, self.planner.obstacles)[0]  # said before the run: _goals_inside
             self.planner.via = self.vias.get(active.index)
@@ -185,6 +187,18 @@ class Planner:
         return self.planner.step(
             t, state, self.goal, active.end, active.index, self.box_radius if holding else None, self.box_drop or 0.0
         )
+
+
+def _at_width(goal: np.ndarray, width: float) -> np.ndarray:
+    """The two hands' `goal` (2, 3) moved along the line between them, about their midpoint, to `width` [m] apart.
+
+    While a box is held by a squeeze force the pads stand inside the faces the written targets touch, by as much
+    as the pads and the box give under that force: the width across the grip is the force loop's. A phase that
+    starts with the box held keeps the width measured at its start, so that its plan does not pull the pads back
+    towards the written faces, against the admittance (the contacts are stiff: a fraction of a millimetre is a
+    large share of the squeeze)."""
+    middle, apart = goal.mean(axis=0), goal[1] - goal[0]
+    return middle + np.outer([-0.5, 0.5], apart * (width / float(np.linalg.norm(apart))))
 
 
 def _grip(scenario: Scenario, width: float) -> GripForce | None:
