@@ -53,14 +53,18 @@ def test_the_box_is_lifted_by_friction_alone_and_never_dropped(lift_run):
     assert held["box_touches_robot"].all()
     assert steps["box_z"].iloc[-1] - steps["box_z"].iloc[0] > 0.08  # lifted (the goal: 12 cm)
     assert held["box_tilt_deg"].max() < 20
-    # the squeeze is the admittance's 20 N force loop, measured by the wrist sensors once the ramp is over: a
-    # proportional loop (K dp balances the force error), it settles steadily short of its reference
+    # the squeeze is the admittance's 20 N force loop, measured by the wrist sensors once the ramp is over. While
+    # the grasp closes on the written faces it is a proportional loop against the plan's grip width (K dp balances
+    # the force error) and settles short of its reference; once the box is held the plan keeps the width the
+    # pads stand at, and the loop settles on its reference
     settled = steps[steps["left_force_ref_N"] >= 20.0]
-    for hand in ("left", "right"):
-        error = settled[f"{hand}_force_normal_N"] - settled[f"{hand}_force_ref_N"]
-        assert len(settled) > 100 and -0.2 * 20.0 < error.mean() < 0.0 and error.std() < 1.0
-        # no chatter at half the control rate (raw force into the admittance: p95 step-to-step change 14 N)
-        assert np.percentile(np.abs(np.diff(settled[f"{hand}_force_normal_N"])), 95) < 1.0
+    for phase, low, high in (("squeeze", -0.2 * 20.0, -1.0), ("lift", -1.0, 1.0)):
+        at = settled[settled["phase"] == phase]
+        for hand in ("left", "right"):
+            error = at[f"{hand}_force_normal_N"] - at[f"{hand}_force_ref_N"]
+            assert len(at) > 50 and low < error.mean() < high and error.std() < 1.0
+            # no chatter at half the control rate (raw force into the admittance: p95 step-to-step change 14 N)
+            assert np.percentile(np.abs(np.diff(at[f"{hand}_force_normal_N"])), 95) < 1.0
 
 
 def test_the_pads_friction_carries_the_lifted_box_weight_as_statics_says(lift_run):
