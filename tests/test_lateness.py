@@ -1,12 +1,17 @@
 """A phase that waited for its goal past its end (tasks/schedule.py) is reported late by its wait, and timed out when
 its goal was still not reached as the next phase started (report/metrics.py `phase_outcomes`), on synthetic steps
-tables of the smoke scenario's phases (raise 3 s, approach 4 s, ...)."""
+tables of the smoke scenario's phases (raise 3 s, approach 4 s, ...); in a closed-loop run, a phase that starts
+waiting re-plans once, and one that waits in vain stalls the run."""
+
+import json
 
 import numpy as np
 import pandas as pd
 import pytest
 from conftest import ROOT
+from typer.testing import CliRunner
 
+from harmony_cli.cli import app
 from harmony_cli.report.metrics import phase_outcomes
 from harmony_cli.scenario import load_scenario
 
@@ -72,3 +77,19 @@ def test_a_phase_that_reached_its_goal_early_but_waited_in_vain_at_its_end_timed
     steps = _steps(_on_time(3.0), _waiting(4.0, 4.0, error))
     approach = phase_outcomes(steps, scenario, HANDS)[1]
     assert approach["completed_s"] is not None and approach["timed_out"] and approach["late_s"] == pytest.approx(4.0)
+
+
+def test_a_phase_sent_out_of_reach_re_plans_once_as_it_starts_waiting_and_then_stalls_the_run(tmp_path):
+    """The raise's hands 2.4 m apart, wider than the arms spread: it waits its 3 s in vain."""
+    wide = [f"task.phases.raise.hands.{h}=[0.76, {y}, 1.245]" for h, y in (("left", 1.2), ("right", -1.2))]
+    sets = [arg for o in [*wide, "sim.duration=4.0"] for arg in ("--set", o)]
+    out = tmp_path / "run"
+    result = CliRunner().invoke(
+        app, ["run", str(ROOT / "scenarios" / "smoke" / "box_lift.yaml"), "--out", str(out), "--quiet", *sets]
+    )
+    assert result.exit_code == 0, result.output
+    steps, task = pd.read_csv(out / "steps.csv"), json.loads((out / "summary.json").read_text())["task"]
+    replanned = steps[steps["replanned"].astype(bool)]
+    assert list(replanned["phase"]) == ["raise"]  # once, in the phase that waited
+    assert replanned["t"].iloc[0] == steps["t"][steps["delay_s"] > 0].iloc[0]  # as it started to wait
+    assert task["success"] is False and task["failure"]["category"] == "stalled"

@@ -245,12 +245,12 @@ def test_the_report_counts_the_draws_refused_as_impossible_by_kind(tmp_path):
 
 
 def test_the_report_s_denominator_counts_a_no_stance_draw_and_not_a_refused_or_unfinished_one(tmp_path):
-    outcomes = ["success", "no stance", "success, a phase timed out", "impossible", "interrupted", "dropped"]
+    outcomes = ["success", "no stance", "success, a phase late", "impossible", "interrupted", "dropped"]
     report = _report_of(tmp_path, outcomes, [[]] * len(outcomes))
     assert (  # success, no stance, the late success and the drop are draws; the late success is a success
         "2 successes of 4 draws (50 %, Wilson 95 % 15 % - 85 %); 1 refused as impossible (1 no passage for the "
-        "base); 1 of the successes had a phase that timed out; 1 runs without a result (interrupted or not run), "
-        "not counted." in report
+        "base); 1 of the successes had a phase that ended late (it waited for its goal); 1 runs without a result "
+        "(interrupted or not run), not counted." in report
     ), report
 
 

@@ -90,18 +90,28 @@ def test_a_box_task_that_missed_a_phase_goal_and_its_box_goal_is_reported_off_go
     assert task_failure(late, steps)["reason"].startswith("the box fell off the tables while held at t = 0.02 s")
 
 
-def test_a_phase_that_waited_for_its_goal_in_vain_is_named_after_the_reason():
-    """A box off its goal after the carry waited its whole duration for its goal: the reason says both."""
-    steps = _steps([1.165] * 3, [True] * 3)
+def _waited_in_vain(goal_error: float) -> dict:
+    """A task whose carry waited its whole 12 s for its goal (re-planned at 13 s), the box `goal_error` off."""
     phases = [{"name": "lift", "start_s": 0.0, "completed_s": 1.0, "final_goal_error_m": 0.01, "waited_s": 0.0}]
-    phases.append({"name": "carry", "start_s": 1.0, "completed_s": None, "final_goal_error_m": 0.43, "waited_s": 12.0})
-    task = {"success": False, "box_dropped": False, "clear_of_obstacles": True, "box_upright": True}
-    failure = task_failure(task | {"phases": phases, "box_goal_error_m": 0.5}, steps)
-    assert failure["category"] == "box off goal"
-    assert failure["reason"] == (
-        "the box ended 50.0 cm from its goal; before that, phase carry timed out: its goal not reached after "
-        "waiting 12.0 s (the hands 0.43 m from it)"
+    phases.append(
+        {"name": "carry", "start_s": 1.0, "completed_s": None, "final_goal_error_m": 0.43, "waited_s": 12.0}
+        | {"replanned_s": 13.0, "timed_out": True}
     )
+    task = {"success": False, "box_dropped": False, "clear_of_obstacles": True, "box_upright": True}
+    return task | {"phases": phases, "box_goal_error_m": goal_error}
+
+
+def test_a_phase_that_waited_for_its_goal_in_vain_stalls_the_run_and_the_reason_says_where_the_box_ended():
+    failure = task_failure(_waited_in_vain(0.5), _steps([1.165] * 3, [True] * 3))
+    assert failure["category"] == "stalled"
+    assert failure["reason"] == (
+        "phase carry stalled: its goal not reached after waiting 12.0 s, re-planned at t = 13.00 s (the hands "
+        "0.43 m from it); the box ended 50.0 cm from its goal"
+    )
+
+
+def test_a_stalled_phase_fails_the_run_though_the_box_ended_on_its_goal():
+    assert task_failure(_waited_in_vain(0.01), _steps([1.165] * 3, [True] * 3))["category"] == "stalled"
 
 
 def test_a_phase_that_timed_out_after_the_drop_is_said_to_come_after_it():
@@ -112,7 +122,7 @@ def test_a_phase_that_timed_out_after_the_drop_is_said_to_come_after_it():
     task = {"success": False, "box_dropped": True, "box_fell_s": steps["t"][2], "box_final": [5.0, 2.0, 0.15]}
     reason = task_failure(task | {"phases": phases}, steps)["reason"]
     assert reason.startswith("the box fell off the tables while held at t = 0.04 s (carry)")
-    assert "; after that, phase carry timed out" in reason and "before that" not in reason
+    assert "; after that, phase carry stalled" in reason and "before that" not in reason
 
 
 def test_a_failure_says_when_it_happened_a_drop_at_its_first_step_an_off_goal_box_at_the_end():

@@ -53,6 +53,8 @@ class Planner:
         self.warnings += self._goals_inside(robot.hand_names)
         self.stances = written_stances(scenario, robot, hands, offset)
         self.stance_plan = stance_plan(scenario, robot, self.stances, offset)  # vias and chest postures
+        self.robot, self.heading_offset = robot, offset  # for a late phase's second stance search
+        self.late: set[int] = set()  # the phases that have waited for their goal (and re-planned once)
         self.vias = self.stance_plan.vias
         self.warnings += [
             f"{no_pose(stance, bool(scenario.robot.trunk), len(STARTS))}: the robot may not get there"
@@ -78,27 +80,25 @@ class Planner:
             error = float(np.linalg.norm(obs.hand_positions - self.goal, axis=1).max())
             self.schedule.wait(t, self.scenario.sim.control_dt, error)
         active = self.schedule.at(t)
+        replanned = False
         if self.phase is None or active.index != self.phase.index:
-            poses = dict(self.table_poses)
-            if obs.box_position is not None:
-                poses["box"] = (obs.box_position, obs.box_yaw)
-            self.phase, self.goal = active, self.schedule.goal(active.spec, obs.hand_positions, poses)
-            if self.schedule.holding(t) and active.spec.force > 0.0:  # the force loop sets the grip's width
-                self.goal = _at_width(self.goal, float(np.linalg.norm(obs.hand_positions[1] - obs.hand_positions[0])))
-            if self._free_handed(self.goal, obs.box_position, t):
-                self.goal = cleared(self.goal, self.planner.obstacles)[0]  # said before the run: _goals_inside
+            self.phase, self.goal = active, self._goal(t, obs, active)
             self.planner.via = self.vias.get(active.index)
+        elif self.schedule.waited[active.index] > 0.0 and active.index not in self.late:
+            self._replan_late(t, obs, active)
+            replanned = True
         holding = self.schedule.holding(t)
         log = {
             "phase": active.spec.name,
             "phase_index": active.index,
             "holding": holding,
             "delay_s": self.schedule.delay,
+            "replanned": replanned,
         }
         # what the hands were asked to be at now (the plan restarts from the measurement)
         now = None if self.result is None else self.result.plan.sample(np.array([t]))[0][0]
         result = self.result
-        if self.step_count % self.scenario.planner.period == 0 or result is None:
+        if self.step_count % self.scenario.planner.period == 0 or result is None or replanned:
             result = self.result = self._replan(t, obs, active, holding)
             log |= {
                 "planner_ms": 1e3 * result.solve_time,
@@ -124,6 +124,32 @@ class Planner:
         reliefs = self.stance_plan.reliefs.get(active.index)
         now = positions[0] if now is None else now
         return HandTargets(positions, rotations, now, force_ref, chest_ref, stance, reliefs, log)
+
+    def _goal(self, t: float, obs: Observation, active: ActivePhase) -> np.ndarray:
+        """The hands' goal (hands, 3) of `active` from the observation: box-relative targets where the box is, a held
+        grip at its measured width, a free-handed goal out of the obstacles' margins."""
+        poses = dict(self.table_poses)
+        if obs.box_position is not None:
+            poses["box"] = (obs.box_position, obs.box_yaw)
+        goal = self.schedule.goal(active.spec, obs.hand_positions, poses)
+        if self.schedule.holding(t) and active.spec.force > 0.0:  # the grip's width is what the pads stand at
+            goal = _at_width(goal, float(np.linalg.norm(obs.hand_positions[1] - obs.hand_positions[0])))
+        if self._free_handed(goal, obs.box_position, t):
+            goal = cleared(goal, self.planner.obstacles)[0]  # said before the run: _goals_inside
+        return goal
+
+    def _replan_late(self, t: float, obs: Observation, active: ActivePhase) -> None:
+        """Once per phase, when it starts waiting for its goal: its goal taken again from the observation (a grip's
+        from where the box is now), its blocked stance searched again from where the base stands, and a fresh
+        plan (the phase's first plan's search) instead of the last one carried on. A phase that then waits its
+        whole wait in vain has stalled: the run fails (report/task_failure.py)."""
+        self.late.add(active.index)
+        self.goal = self._goal(t, obs, active)
+        base = obs.q[list(self.robot.base_joints)]
+        self.stance_plan = self.stance_plan.replanned(
+            active.index, self.scenario, self.robot, self.heading_offset, base
+        )
+        self.planner.phase = None
 
     def _free_handed(self, goal: np.ndarray, box: np.ndarray | None, t: float) -> bool:
         """Whether a phase starting at `t` with the hands' `goal` (hands, 3) neither holds the box nor works at it

@@ -80,10 +80,11 @@ def stance_poses(
     headings: np.ndarray,
     first: bool = False,
     starts: tuple[tuple[float, float], ...] = STARTS,
+    seeds: tuple[np.ndarray, ...] = (),
 ) -> list[StancePose]:
-    """stance_pose's poses from every one of `starts` (STARTS) that converges, least relief first, else in the
-    order tried (`first`: stop at the first that keeps every margin), the same pose found twice (within SAME_M and
-    SAME_RAD) once."""
+    """stance_pose's poses from every one of `seeds` (base poses x, y, yaw: e.g. where the base stands) and then
+    `starts` (STARTS) that converges, least relief first, else in the order tried (`first`: stop at the first that
+    keeps every margin), the same pose found twice (within SAME_M and SAME_RAD) once."""
     home = home_at_origin(robot)
     # headings are the planner's, 0 at home as the robot starts: the pads turn from there, the base from its yaw
     rotations = [r for _, r in robot.hand_poses_numeric(robot.home)]
@@ -116,9 +117,12 @@ def stance_poses(
     behind = _behind(robot, home)
     middle = targets.mean(axis=(0, 1))[:2]
     found: list[StancePose] = []
+    relative = []
     for turn_deg, share in starts:
         yaw = start_yaw + float(headings[-1]) + np.deg2rad(turn_deg)
-        start = np.r_[middle - share * rot_z(np.asarray(yaw))[:2, :2] @ behind, yaw, gives]
+        relative.append(np.r_[middle - share * rot_z(np.asarray(yaw))[:2, :2] @ behind, yaw])
+    for base_start in [np.asarray(seed, dtype=float) for seed in seeds] + relative:
+        start = np.r_[base_start, gives]
         with captured_output():
             out = solver(x0=np.r_[start, np.tile(home[free], len(targets))], lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         if not solver.stats()["success"]:

@@ -78,7 +78,8 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
     out |= {"clear_of_obstacles": clear, "contact_free": untouched, "all_solves_succeeded": solved}
     box = scenario.world.box
     if box is None:  # success: every phase's goal reached, never touching an obstacle, no failed solve
-        out["success"] = bool(untouched and solved and all(p["completed_s"] is not None for p in phases))
+        completed = all(p["completed_s"] is not None for p in phases)
+        out["success"] = bool(untouched and solved and completed and not out["timed_out_phases"])
     elif "box_x" in steps:
         final = steps[["box_x", "box_y", "box_z"]].iloc[-1].to_numpy()
         fell = fell_at(steps, [t.height for t in scenario.world.tables], box.size[2])
@@ -93,7 +94,14 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
             "box_upright": upright,
             "box_dropped": dropped,
             "box_fell_s": fell,
-            "success": bool(error is not None and error <= GOAL_TOLERANCE and upright and not dropped and untouched),
+            "success": bool(
+                error is not None
+                and error <= GOAL_TOLERANCE
+                and upright
+                and not dropped
+                and untouched
+                and not out["timed_out_phases"]
+            ),
         }
     if "success" in out:
         out["failure"] = task_failure(out, steps)
@@ -104,8 +112,9 @@ def phase_outcomes(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) ->
     """Per task phase: `start_s`; `completed_s`, when its hands first reached its goal (None: never);
     `final_goal_error_m` at its last step; `waited_s`, how long it waited for its goal past its end as written
     (moved by the earlier phases' waits; tasks/schedule.py); `late_s`, how late it ended, which is that wait (a
-    wait lasts until the goal is reached, at most the phase's own duration); `timed_out`: it waited and its goal
-    was still not reached at its last step (the next phase started without it)."""
+    wait lasts until the goal is reached, at most the phase's own duration); `replanned_s`, when it re-planned
+    as it started to wait (planning/planner.py; None: it never waited); `timed_out`: it waited and its goal was
+    still not reached at its last step (the next phase started without it): it stalled, and the run fails."""
     phases = []
     goal_error = steps[[f"{h}_goal_error_m" for h in hands]].max(axis=1)
     for index, phase in enumerate(scenario.task.phases if scenario.task else []):
@@ -113,6 +122,7 @@ def phase_outcomes(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) ->
         at_goal = rows & (goal_error < REACHED + phase.squeeze / 2)  # a squeeze goal is inside the box
         reached = steps["t"][at_goal]
         waited = float(np.ptp(steps["delay_s"][rows])) if rows.any() and "delay_s" in steps else 0.0
+        replanned = rows & steps["replanned"].astype(bool) if "replanned" in steps else rows & False
         phases.append(
             {
                 "name": phase.name,
@@ -121,6 +131,7 @@ def phase_outcomes(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) ->
                 "final_goal_error_m": float(goal_error[rows].iloc[-1]) if rows.any() else None,
                 "waited_s": waited,
                 "late_s": waited,
+                "replanned_s": float(steps["t"][replanned].min()) if replanned.any() else None,
                 "timed_out": bool(waited > 0 and not at_goal[rows].iloc[-1]),
             }
         )

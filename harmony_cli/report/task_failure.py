@@ -2,10 +2,11 @@
 table and its task outcome (summary.json `task`), so nobody has to dig it out of steps.csv.
 
 Categories, the first that applies: dropped (the box left the hands while held, or fell off the tables), collision
-(the robot touched a table or an obstacle, or the box an obstacle: report/touches.py), box tipped, box off goal,
-then (a task without a box: every phase must reach its goal) phase timeout, and solver failures. A phase that
-waited for its goal and never reached it (tasks/schedule.py) is named after the reason, as before or after it: a
-carry that waits in vain because the box fell earlier did not cause the fall."""
+(the robot touched a table or an obstacle, or the box an obstacle: report/touches.py), box tipped, stalled (a
+phase waited its whole wait for its goal, re-planned once as it started waiting, and never reached it:
+tasks/schedule.py, planning/planner.py), box off goal, then (a task without a box: every phase must reach its
+goal) phase timeout, and solver failures. A phase that stalled is named after an earlier category's reason, as
+before or after it: a carry that waits in vain because the box fell earlier did not cause the fall."""
 
 from __future__ import annotations
 
@@ -182,6 +183,35 @@ def _timeout(task: dict, steps: pd.DataFrame) -> str:
     return f"phase {phase['name']} never reached its goal: {away} at its end"
 
 
+def _stalled_phase(task: dict) -> tuple[int, dict]:
+    return next((i, p) for i, p in enumerate(task["phases"]) if _gave_up(p))
+
+
+def _stall(phase: dict) -> str:
+    replanned = phase.get("replanned_s")
+    again = f", re-planned at t = {replanned:.2f} s" if replanned is not None else ""
+    away = f"{phase['final_goal_error_m']:.2f} m" if phase.get("final_goal_error_m") is not None else "?"
+    return (
+        f"phase {phase['name']} stalled: its goal not reached after waiting {phase['waited_s']:.1f} s{again} "
+        f"(the hands {away} from it)"
+    )
+
+
+def _stalled(task: dict, steps: pd.DataFrame) -> str:
+    reason = _stall(_stalled_phase(task)[1])
+    if task.get("box_goal_error_m") is not None:
+        reason += f"; the box ended {100 * task['box_goal_error_m']:.1f} cm from its goal"
+    return reason
+
+
+def _stalled_s(task: dict, steps: pd.DataFrame) -> float | None:
+    """When the stalled phase gave up: the next phase's start (None: the run ended in it)."""
+    i, _ = _stalled_phase(task)
+    phases = task["phases"]
+    following = phases[i + 1].get("start_s") if i + 1 < len(phases) else None
+    return float(following) if following is not None else None
+
+
 def _off_goal(task: dict, steps: pd.DataFrame) -> str:
     return f"the box ended {100 * task['box_goal_error_m']:.1f} cm from its goal"
 
@@ -205,6 +235,7 @@ FAILURES: tuple[tuple[str, Callable[[dict], bool], Reason, When], ...] = (
     ("dropped", lambda t: t.get("box_dropped") is True, _dropped, _dropped_s),
     ("collision", _collided, _collision, _collision_s),
     ("box tipped", lambda t: t.get("box_upright") is False, _tipped, _at_end),
+    ("stalled", lambda t: any(_gave_up(p) for p in t.get("phases", [])), _stalled, _stalled_s),
     ("box off goal", lambda t: t.get("box_goal_error_m") is not None, _off_goal, _at_end),
     ("phase timeout", lambda t: any(p.get("completed_s") is None for p in t.get("phases", [])), _timeout, _at_end),
     ("solver failures", lambda t: t.get("all_solves_succeeded") is False, _solves, _at_end),
@@ -236,29 +267,23 @@ def task_failure(task: dict, steps: pd.DataFrame) -> dict | None:
         }
     category, reason, when = first
     at_s = when(task, steps)
-    return {"category": category, "reason": reason(task, steps) + _timed_out(task, steps, at_s), "at_s": at_s}
+    said = "" if category == "stalled" else _timed_out(task, steps, at_s)
+    return {"category": category, "reason": reason(task, steps) + said, "at_s": at_s}
 
 
 def _timed_out(task: dict, steps: pd.DataFrame, failed_s: float | None) -> str:
-    """The first phase that waited for its goal and never reached it, and whether it gave up before or after the
-    failure at `failed_s` (None: the end of the run), or ''. A phase gives up when the next one starts."""
-    phases = task.get("phases", [])
-    i = next((i for i, p in enumerate(phases) if _gave_up(p)), None)
-    if i is None:
+    """The first phase that stalled, and whether it gave up before or after the failure at `failed_s` (None: the
+    end of the run), or ''. A phase gives up when the next one starts."""
+    if not any(_gave_up(p) for p in task.get("phases", [])):
         return ""
-    phase = phases[i]
-    following = phases[i + 1].get("start_s") if i + 1 < len(phases) else None
-    gave_up = float(following) if following is not None else float(steps["t"].iloc[-1])
+    gave_up = _stalled_s(task, steps)
+    gave_up = float(steps["t"].iloc[-1]) if gave_up is None else gave_up
     order = "before" if failed_s is None or gave_up <= failed_s else "after"
-    away = f"{phase['final_goal_error_m']:.2f} m" if phase.get("final_goal_error_m") is not None else "?"
-    return (
-        f"; {order} that, phase {phase['name']} timed out: its goal not reached after waiting "
-        f"{phase['waited_s']:.1f} s (the hands {away} from it)"
-    )
+    return f"; {order} that, {_stall(_stalled_phase(task)[1])}"
 
 
 def _gave_up(phase: dict) -> bool:
-    """A phase that timed out: it waited and never reached its goal (`timed_out`; outcomes written before it:
+    """A phase that stalled: it waited and never reached its goal (`timed_out`; outcomes written before it:
     waited and never completed)."""
     if "timed_out" in phase:
         return bool(phase["timed_out"])

@@ -22,7 +22,7 @@ from matplotlib.patches import Circle, Patch, Polygon
 
 from harmony_cli.report.figure import plt, save
 from harmony_cli.study.sampling import value_at
-from harmony_cli.study.table import IMPOSSIBLE, SUCCESS_TIMED_OUT
+from harmony_cli.study.table import IMPOSSIBLE, SUCCESS_LATE
 from harmony_cli.study.table import SUCCESS as OUTCOME_SUCCESS
 
 POSITIONAL = re.compile(r"^vary\.(?P<field>(?:.+\.)?(?:base_pose|position))\.(?P<axis>[0-2])$")
@@ -42,14 +42,14 @@ def positional_fields(table: pd.DataFrame) -> dict[str, dict[int, str]]:
 
 
 def outcome_colours(outcomes: pd.Series) -> dict[str, str]:
-    """Success green (a lighter green with a phase that timed out), refused or impossible draws dark grey, runs
+    """Success green (a lighter green with a phase that ended late), refused or impossible draws dark grey, runs
     without a result light grey, and each other outcome (a failure) its own colour, the most frequent first."""
     counts = outcomes.value_counts()
     colours, failures = {}, 0
     for outcome in sorted(counts.index, key=lambda o: (-counts[o], str(o))):
         rank = _rank(str(outcome))
         if rank < 3:
-            late = str(outcome) == SUCCESS_TIMED_OUT
+            late = str(outcome) == SUCCESS_LATE
             colours[str(outcome)] = LATE_SUCCESS if late else (SUCCESS, REFUSED, NO_RESULT)[rank]
         else:
             colours[str(outcome)] = FAILURES[failures % len(FAILURES)]
@@ -59,7 +59,7 @@ def outcome_colours(outcomes: pd.Series) -> dict[str, str]:
 
 def _rank(outcome: str) -> int:
     """The drawing order: success first (underneath), then draws without a verdict, then the failures on top."""
-    if outcome in (OUTCOME_SUCCESS, SUCCESS_TIMED_OUT):
+    if outcome in (OUTCOME_SUCCESS, SUCCESS_LATE):
         return 0
     if outcome == IMPOSSIBLE or "refused" in outcome:
         return 1

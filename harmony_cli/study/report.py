@@ -19,7 +19,7 @@ from scipy.stats import binomtest
 
 from harmony_cli.report.figure import plt, save
 from harmony_cli.study.draw_map import draw_map
-from harmony_cli.study.table import IMPOSSIBLE, SUCCESS, SUCCESS_TIMED_OUT, TABLE
+from harmony_cli.study.table import IMPOSSIBLE, SUCCESS, SUCCESS_LATE, TABLE
 
 METRICS = (  # (column or prefix, what it is, unit scale, unit): distributions in the report
     ("summary.task.box_goal_error_m", "box goal error", 100.0, "cm"),
@@ -58,7 +58,7 @@ def varied_columns(table: pd.DataFrame) -> list[str]:
 
 def success_rates(table: pd.DataFrame) -> pd.DataFrame:
     """Per grid point: `runs` (the draws the controller was given, with a result), successes (`late`: those with a
-    phase that timed out), rate, Wilson 95 % interval, `refused` (draws refused as impossible: drawn again before
+    phase that ended late), rate, Wilson 95 % interval, `refused` (draws refused as impossible: drawn again before
     they ran, or ended so before the robot moved) and the runs without a result."""
     out = []
     for point, runs in table.groupby("point", sort=False):
@@ -68,7 +68,7 @@ def success_rates(table: pd.DataFrame) -> pd.DataFrame:
         low, high = wilson(k, n)
         out.append(
             {"point": point, "runs": n, "successes": k, "rate": k / n if n else math.nan, "low": low, "high": high}
-            | {"late": int((results["outcome"] == SUCCESS_TIMED_OUT).sum())}
+            | {"late": int((results["outcome"] == SUCCESS_LATE).sum())}
             | {"refused": int(_resamples(runs) + impossible.sum()), "no_result": int(runs["success"].isna().sum())}
         )
     return pd.DataFrame(out)
@@ -115,7 +115,7 @@ def headline(rate, runs: pd.DataFrame) -> str:
         f"{_pct(rate.high)}); {rate.refused} refused as impossible{by_kind}"
     )
     if rate.late:
-        line += f"; {rate.late} of the successes had a phase that timed out"
+        line += f"; {rate.late} of the successes had a phase that ended late (it waited for its goal)"
     if rate.no_result:
         line += f"; {rate.no_result} runs without a result (interrupted or not run), not counted"
     return line + "."
@@ -160,7 +160,7 @@ def write_report(study: Path) -> list[Path]:
                 q = np.percentile(values, [50, 95, 100])
                 label = f"{what} [{unit}]" if unit else what
                 lines.append(f"| {label} | {point} | {len(values)} | {q[0]:.3g} | {q[1]:.3g} | {q[2]:.3g} |")
-    failed = table[~table["outcome"].isin([SUCCESS, SUCCESS_TIMED_OUT])]
+    failed = table[~table["outcome"].isin([SUCCESS, SUCCESS_LATE])]
     lines += ["", f"## Runs that did not succeed ({len(failed)})", ""]
     if len(failed):
         header = "| sample | grid point | outcome | reason | look at it | run it again |"

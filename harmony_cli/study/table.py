@@ -19,7 +19,7 @@ NOT_RUN = ("interrupted", "killed", "running", "not run")  # statuses that are n
 # Outcomes of a run that ended before the robot moved: a proof from geometry that the scene has no solution (not a
 # draw of the controller's: out of the denominator), or the controller's stance search finding none (its failure)
 IMPOSSIBLE, NO_STANCE = "impossible", "no stance"
-SUCCESS, SUCCESS_TIMED_OUT = "success", "success, a phase timed out"  # both successes; the second counted apart
+SUCCESS, SUCCESS_LATE = "success", "success, a phase late"  # both successes; the second counted apart
 
 
 def _failed_first(summary: dict) -> dict | None:
@@ -30,8 +30,8 @@ def _failed_first(summary: dict) -> dict | None:
 
 
 def outcome(summary: dict) -> str:
-    """success (or success with a phase that timed out) | a task failure (dropped, collision, ...) | impossible |
-    no stance | `run failed: <category>` | interrupted | not run."""
+    """success (or success with a phase that ended late: it waited for its goal and reached it) | a task failure
+    (dropped, collision, stalled, ...) | impossible | no stance | `run failed: <category>` | interrupted | not run."""
     status = summary.get("status", "not run")
     if status in NOT_RUN:
         return "interrupted" if status != "not run" else status
@@ -44,7 +44,7 @@ def outcome(summary: dict) -> str:
     if task is None:  # a hand trajectory: success is every solve succeeding
         return SUCCESS if summary.get("failed_solves") == 0 else "solver failures"
     if task.get("success"):
-        return SUCCESS_TIMED_OUT if task.get("timed_out_phases") else SUCCESS
+        return SUCCESS_LATE if task.get("late_s") else SUCCESS
     return (task.get("failure") or {}).get("category") or failure_category(task)  # older runs: no failure
 
 
@@ -81,7 +81,7 @@ def run_row(run: PlannedRun, run_dir: Path) -> dict[str, Any]:
         "status": summary.get("status"),
         "failure": summary.get("failure"),
         "outcome": result,
-        "success": result in (SUCCESS, SUCCESS_TIMED_OUT) if summary.get("status") not in NOT_RUN else None,
+        "success": result in (SUCCESS, SUCCESS_LATE) if summary.get("status") not in NOT_RUN else None,
         "reason": run_reason(summary),
         "resamples": len(run.sample.rejected),
         "rejected": list(run.sample.rejected),  # why each earlier draw of the sample was refused
