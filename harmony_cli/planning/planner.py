@@ -139,17 +139,20 @@ class Planner:
         return goal
 
     def _replan_late(self, t: float, obs: Observation, active: ActivePhase) -> None:
-        """Once per phase, when it starts waiting for its goal: its goal taken again from the observation (a grip's
-        from where the box is now), its blocked stance searched again from where the base stands, and a fresh
-        plan (the phase's first plan's search) instead of the last one carried on. A phase that then waits its
-        whole wait in vain has stalled: the run fails (report/task_failure.py)."""
+        """Once per phase, when it starts waiting for its goal: its blocked stance searched again from where the
+        base stands and, unless the box is held, its goal taken again from the observation (a grip's from where
+        the box is now) and a fresh plan (the phase's first plan's search) instead of the last one carried on. A
+        held box keeps its plan: the pads' force follows millimetres of the hands' reference, and a new plan
+        moves it by that much. A phase that then waits its whole wait in vain has stalled: the run fails
+        (report/task_failure.py)."""
         self.late.add(active.index)
-        self.goal = self._goal(t, obs, active)
         base = obs.q[list(self.robot.base_joints)]
         self.stance_plan = self.stance_plan.replanned(
             active.index, self.scenario, self.robot, self.heading_offset, base
         )
-        self.planner.phase = None
+        if not self.schedule.holding(t):
+            self.goal = self._goal(t, obs, active)
+            self.planner.phase = None
 
     def _free_handed(self, goal: np.ndarray, box: np.ndarray | None, t: float) -> bool:
         """Whether a phase starting at `t` with the hands' `goal` (hands, 3) neither holds the box nor works at it

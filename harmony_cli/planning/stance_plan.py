@@ -98,17 +98,22 @@ class StancePlan:
     def replanned(self, phase: int, scenario: Scenario, robot: Robot, heading_offset: float, base: np.ndarray):
         """This plan with the poses of `phase`'s blocked group searched again, first from where the `base` (x, y,
         yaw) stands (a phase that waits for its goal: the scene or the robot is not where the first search
-        assumed); itself when the phase is in no blocked group or no pose is found."""
+        assumed); itself when the phase is in no blocked group or no pose is found. The poses found join the
+        group's (the nearest the base is taken), and its reliefs only grow: a margin raised while the robot
+        stands inside it would push the robot out in one step, the box in its hands."""
         posture = self._posture(phase)
         if posture is None or posture.stance is None:
             return self
         group = _group(scenario, robot, posture.stance, heading_offset, (base,))
         if group is None or isinstance(group, Stance):
             return self
-        _, new, reliefs = group
-        postures = [new if p is posture else p for p in self.postures]
-        kept = {k: v for k, v in self.reliefs.items() if k not in posture.phases}
-        return replace(self, postures=postures, reliefs=kept | reliefs)
+        _, found, reliefs = group
+        bases, chests = np.vstack([found.bases, posture.bases]), np.vstack([found.chests, posture.chests])
+        postures = [replace(p, bases=bases, chests=chests) if p is posture else p for p in self.postures]
+        grown = dict(self.reliefs)
+        for k, relief in reliefs.items():
+            grown[k] = np.maximum(grown[k], relief) if k in grown else relief
+        return replace(self, postures=postures, reliefs=grown)
 
 
 class ChestRamp:
