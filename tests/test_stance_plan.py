@@ -57,10 +57,10 @@ def test_the_posture_takes_the_chest_of_the_pose_nearest_the_base_in_full_near_t
 
 def test_the_stance_puts_the_base_where_the_nearest_pose_stands_from_the_pivot_at_the_knots_near_it_alone():
     posture = _posture()
-    stance = posture.base_stance(_hands([0.3, 0.1]), np.array([-1.0, -1.0]))  # the southern pose is nearest
+    stance = posture.stance(_hands([0.3, 0.1]), np.array([-1.0, -1.0]))  # the southern pose is nearest
     blend = 1.0 - (np.hypot(0.3, 0.1) - NEAR) / STANCE_BLEND
     np.testing.assert_allclose(stance[:, 0], [0.3 - 0.6, 0.1 - 0.4, 0.5, blend])
-    assert posture.base_stance(_hands([NEAR + STANCE_BLEND, 0.0]), np.zeros(2))[3, 0] == 0.0  # on the way: none
+    assert posture.stance(_hands([NEAR + STANCE_BLEND, 0.0]), np.zeros(2))[3, 0] == 0.0  # on the way: none
 
 
 def test_a_place_reachable_from_either_side_gets_a_pose_each_side_with_the_chest_turned_back_to_the_hands():

@@ -53,7 +53,6 @@ class Planner:
         self.warnings += self._goals_inside(robot.hand_names)
         self.stances = written_stances(scenario, robot, hands, offset)
         self.stance_plan = stance_plan(scenario, robot, self.stances, offset)  # vias and chest postures
-        self.robot, self.heading_offset = robot, offset  # for a late phase's second stance search
         self.late: set[int] = set()  # the phases that have waited for their goal (and re-planned once)
         self.vias = self.stance_plan.vias
         self.warnings += [
@@ -139,17 +138,12 @@ class Planner:
         return goal
 
     def _replan_late(self, t: float, obs: Observation, active: ActivePhase) -> None:
-        """Once per phase, when it starts waiting for its goal: its blocked stance searched again from where the
-        base stands and, unless the box is held, its goal taken again from the observation (a grip's from where
-        the box is now) and a fresh plan (the phase's first plan's search) instead of the last one carried on. A
-        held box keeps its plan: the pads' force follows millimetres of the hands' reference, and a new plan
-        moves it by that much. A phase that then waits its whole wait in vain has stalled: the run fails
-        (report/task_failure.py)."""
+        """Once per phase, when it starts waiting for its goal and the box is not held: its goal taken again from
+        the observation (a grip's from where the box is now) and a fresh plan (the phase's first plan's search)
+        instead of the last one carried on. A held box keeps its plan: the pads' force follows millimetres of the
+        hands' reference, and a new plan moves it by that much. A phase that then waits its whole wait in vain has
+        stalled: the run fails (report/task_failure.py)."""
         self.late.add(active.index)
-        base = obs.q[list(self.robot.base_joints)]
-        self.stance_plan = self.stance_plan.replanned(
-            active.index, self.scenario, self.robot, self.heading_offset, base
-        )
         if not self.schedule.holding(t):
             self.goal = self._goal(t, obs, active)
             self.planner.phase = None

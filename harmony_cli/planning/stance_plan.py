@@ -20,7 +20,7 @@ Cost: the search's starts, once before the loop (about 2 s with a blocked stance
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -50,7 +50,6 @@ class Posture:
     pivot: np.ndarray
     bases: np.ndarray
     chests: np.ndarray
-    stance: Stance | None = None  # the blocked stance the poses were searched for
 
     def _nearest(self, hands: np.ndarray, base: np.ndarray, width: float) -> tuple[int, np.ndarray]:
         """The pose nearest the base's measured position (2,), and its blend at the planned `hands` (K, 2, 3): 1
@@ -64,7 +63,7 @@ class Posture:
         nearest, blend = self._nearest(hands, base, BLEND)
         return self.chests[nearest][:, None] * blend[None]
 
-    def base_stance(self, hands: np.ndarray, base: np.ndarray) -> np.ndarray:
+    def stance(self, hands: np.ndarray, base: np.ndarray) -> np.ndarray:
         """(4, K): the base where the nearest pose stands it from the pivot, carried with the planned hands'
         midpoint (x, y; its yaw the pose's), and its weight, the blend over STANCE_BLEND."""
         nearest, blend = self._nearest(hands, base, STANCE_BLEND)
@@ -93,27 +92,7 @@ class StancePlan:
     def stance(self, phase: int, hands: np.ndarray, base: np.ndarray) -> np.ndarray | None:
         """The base's stance (4, K) in `phase` (Posture.stance); None outside a blocked group."""
         posture = self._posture(phase)
-        return None if posture is None else posture.base_stance(hands, base)
-
-    def replanned(self, phase: int, scenario: Scenario, robot: Robot, heading_offset: float, base: np.ndarray):
-        """This plan with the poses of `phase`'s blocked group searched again, first from where the `base` (x, y,
-        yaw) stands (a phase that waits for its goal: the scene or the robot is not where the first search
-        assumed); itself when the phase is in no blocked group or no pose is found. The poses found join the
-        group's (the nearest the base is taken), and its reliefs only grow: a margin raised while the robot
-        stands inside it would push the robot out in one step, the box in its hands."""
-        posture = self._posture(phase)
-        if posture is None or posture.stance is None:
-            return self
-        group = _group(scenario, robot, posture.stance, heading_offset, (base,))
-        if group is None or isinstance(group, Stance):
-            return self
-        _, found, reliefs = group
-        bases, chests = np.vstack([found.bases, posture.bases]), np.vstack([found.chests, posture.chests])
-        postures = [replace(p, bases=bases, chests=chests) if p is posture else p for p in self.postures]
-        grown = dict(self.reliefs)
-        for k, relief in reliefs.items():
-            grown[k] = np.maximum(grown[k], relief) if k in grown else relief
-        return replace(self, postures=postures, reliefs=grown)
+        return None if posture is None else posture.stance(hands, base)
 
 
 class ChestRamp:
@@ -159,42 +138,26 @@ def stance_plan(scenario: Scenario, robot: Robot, found: list[Stance], heading_o
     for stance in found:
         if stance.warning() is None:
             continue
-        group = _group(scenario, robot, stance, heading_offset)
-        if isinstance(group, Stance):
-            unplaced.append(group)
-        elif group is not None:
-            via, posture, group_reliefs = group
-            if via is not None:
-                vias[names.index(stance.phases[0])] = via
-            postures.append(posture)
-            reliefs |= group_reliefs
+        at_pivot = pivot_targets(scenario, robot, stance, heading_offset)
+        if at_pivot is None:
+            continue
+        poses = stance_poses(scenario, robot, *at_pivot[:2])
+        if not poses:
+            if at_pivot[2]:
+                unplaced.append(stance)
+            continue
+        least = float(poses[0].reliefs.sum())
+        poses = [pose for pose in poses if float(pose.reliefs.sum()) <= least + RELIEF_SPREAD]
+        if at_pivot[2]:
+            vias[names.index(stance.phases[0])] = poses[0].base[:2]
+        phases = frozenset(names.index(n) for n in stance.phases)
+        if least > 0.0:
+            needed = np.max([pose.reliefs for pose in poses], axis=0)
+            reliefs |= dict.fromkeys(phases, np.where(needed > 0.0, needed + RELIEF_SPARE, 0.0))
+        bases = np.array([pose.base for pose in poses])
+        chests = np.array([np.median(pose.joints[:, chest], axis=0) for pose in poses]).reshape(len(poses), -1)
+        postures.append(Posture(phases, stance.pivot_position[:2], bases, chests))
     return StancePlan(vias, postures, unplaced, reliefs, bool(chest))
-
-
-def _group(scenario: Scenario, robot: Robot, stance: Stance, heading_offset: float, seeds=()):
-    """A blocked stance's via (None: its first phase is an approach), posture and reliefs (phase index -> per world
-    obstacle), the search started from `seeds` (base poses) first; the stance itself when no pose is found for a
-    group that starts at its pivot; None when nothing of it works at the pivot or nothing was found."""
-    assert scenario.task is not None
-    names = [p.name for p in scenario.task.phases]
-    chest = [robot.index(j) for j in scenario.robot.chest_joints]
-    at_pivot = pivot_targets(scenario, robot, stance, heading_offset)
-    if at_pivot is None:
-        return None
-    poses = stance_poses(scenario, robot, *at_pivot[:2], seeds=tuple(seeds))
-    if not poses:
-        return stance if at_pivot[2] else None
-    least = float(poses[0].reliefs.sum())
-    poses = [pose for pose in poses if float(pose.reliefs.sum()) <= least + RELIEF_SPREAD]
-    via = poses[0].base[:2] if at_pivot[2] else None
-    phases = frozenset(names.index(n) for n in stance.phases)
-    reliefs: dict[int, np.ndarray] = {}
-    if least > 0.0:
-        needed = np.max([pose.reliefs for pose in poses], axis=0)
-        reliefs = dict.fromkeys(phases, np.where(needed > 0.0, needed + RELIEF_SPARE, 0.0))
-    bases = np.array([pose.base for pose in poses])
-    chests = np.array([np.median(pose.joints[:, chest], axis=0) for pose in poses]).reshape(len(poses), -1)
-    return via, Posture(phases, stance.pivot_position[:2], bases, chests, stance), reliefs
 
 
 def pivot_targets(

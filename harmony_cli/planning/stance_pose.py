@@ -80,11 +80,10 @@ def stance_poses(
     headings: np.ndarray,
     first: bool = False,
     starts: tuple[tuple[float, float], ...] = STARTS,
-    seeds: tuple[np.ndarray, ...] = (),
 ) -> list[StancePose]:
-    """stance_pose's poses from every one of `seeds` (base poses x, y, yaw: e.g. where the base stands) and then
-    `starts` (STARTS) that converges, least relief first, else in the order tried (`first`: stop at the first that
-    keeps every margin), the same pose found twice (within SAME_M and SAME_RAD) once."""
+    """stance_pose's poses from every one of `starts` (STARTS) that converges, least relief first, else in the
+    order tried (`first`: stop at the first that keeps every margin), the same pose found twice (within SAME_M and
+    SAME_RAD) once."""
     home = home_at_origin(robot)
     # headings are the planner's, 0 at home as the robot starts: the pads turn from there, the base from its yaw
     rotations = [r for _, r in robot.hand_poses_numeric(robot.home)]
@@ -114,10 +113,12 @@ def stance_poses(
     ubx = np.r_[np.full(3, np.inf), gives, np.tile(upper, len(targets))]
     options = {"ipopt.print_level": 0, "print_time": False, "ipopt.max_iter": 300, "ipopt.sb": "yes"}
     solver = cs.nlpsol("stance", "ipopt", {"x": cs.vertcat(base, reliefs, *variables), "f": cost, "g": g}, options)
+    behind = _behind(robot, home)
+    middle = targets.mean(axis=(0, 1))[:2]
     found: list[StancePose] = []
-    relative = _base_starts(robot, home, targets, start_yaw + float(headings[-1]), starts)
-    for base_start in [np.asarray(seed, dtype=float) for seed in seeds] + relative:
-        start = np.r_[base_start, gives]
+    for turn_deg, share in starts:
+        yaw = start_yaw + float(headings[-1]) + np.deg2rad(turn_deg)
+        start = np.r_[middle - share * rot_z(np.asarray(yaw))[:2, :2] @ behind, yaw, gives]
         with captured_output():
             out = solver(x0=np.r_[start, np.tile(home[free], len(targets))], lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         if not solver.stats()["success"]:
@@ -132,17 +133,6 @@ def stance_poses(
         if first and not pose.relieved:
             break
     return sorted(found, key=lambda pose: float(pose.reliefs.sum()))
-
-
-def _base_starts(robot: Robot, home: np.ndarray, targets: np.ndarray, yaw: float, starts) -> list[np.ndarray]:
-    """Base poses (x, y, yaw) to start the search from: per (turn [deg], share) of `starts`, the base turned by
-    that much from `yaw` and that share of home's distance behind the targets' middle."""
-    behind, middle = _behind(robot, home), targets.mean(axis=(0, 1))[:2]
-    poses = []
-    for turn_deg, share in starts:
-        turned = yaw + np.deg2rad(turn_deg)
-        poses.append(np.r_[middle - share * rot_z(np.asarray(turned))[:2, :2] @ behind, turned])
-    return poses
 
 
 def _relieved_margins(scenario: Scenario, robot: Robot):
