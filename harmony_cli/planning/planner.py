@@ -84,8 +84,7 @@ class Planner:
             self.phase, self.goal = active, self._goal(t, obs, active)
             self.planner.via = self.vias.get(active.index)
         elif self.schedule.waited[active.index] > 0.0 and active.index not in self.late:
-            self._replan_late(t, obs, active)
-            replanned = True
+            replanned = self._replan_late(t, obs, active)
         holding = self.schedule.holding(t)
         log = {
             "phase": active.spec.name,
@@ -137,16 +136,18 @@ class Planner:
             goal = cleared(goal, self.planner.obstacles)[0]  # said before the run: _goals_inside
         return goal
 
-    def _replan_late(self, t: float, obs: Observation, active: ActivePhase) -> None:
+    def _replan_late(self, t: float, obs: Observation, active: ActivePhase) -> bool:
         """Once per phase, when it starts waiting for its goal and the box is not held: its goal taken again from
         the observation (a grip's from where the box is now) and a fresh plan (the phase's first plan's search)
-        instead of the last one carried on. A held box keeps its plan: the pads' force follows millimetres of the
-        hands' reference, and a new plan moves it by that much. A phase that then waits its whole wait in vain has
-        stalled: the run fails (report/task_failure.py)."""
+        instead of the last one carried on; whether it re-planned. A held box keeps its plan: the pads' force
+        follows millimetres of the hands' reference, and a new plan moves it by that much. A phase that then waits
+        its whole wait in vain has stalled: the run fails (report/task_failure.py)."""
         self.late.add(active.index)
-        if not self.schedule.holding(t):
-            self.goal = self._goal(t, obs, active)
-            self.planner.phase = None
+        if self.schedule.holding(t):
+            return False
+        self.goal = self._goal(t, obs, active)
+        self.planner.phase = None
+        return True
 
     def _free_handed(self, goal: np.ndarray, box: np.ndarray | None, t: float) -> bool:
         """Whether a phase starting at `t` with the hands' `goal` (hands, 3) neither holds the box nor works at it

@@ -113,8 +113,9 @@ def phase_outcomes(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) ->
     `final_goal_error_m` at its last step; `waited_s`, how long it waited for its goal past its end as written
     (moved by the earlier phases' waits; tasks/schedule.py); `late_s`, how late it ended, which is that wait (a
     wait lasts until the goal is reached, at most the phase's own duration); `replanned_s`, when it re-planned
-    as it started to wait (planning/planner.py; None: it never waited); `timed_out`: it waited and its goal was
-    still not reached at its last step (the next phase started without it): it stalled, and the run fails."""
+    as it started to wait (planning/planner.py; None: it never waited, or waited with the box held);
+    `timed_out`: it waited and its goal was still not reached at its last step (the next phase started without
+    it): it stalled, and the run fails."""
     phases = []
     goal_error = steps[[f"{h}_goal_error_m" for h in hands]].max(axis=1)
     for index, phase in enumerate(scenario.task.phases if scenario.task else []):

@@ -3,10 +3,11 @@ table and its task outcome (summary.json `task`), so nobody has to dig it out of
 
 Categories, the first that applies: dropped (the box left the hands while held, or fell off the tables), collision
 (the robot touched a table or an obstacle, or the box an obstacle: report/touches.py), box tipped, stalled (a
-phase waited its whole wait for its goal, re-planned once as it started waiting, and never reached it:
-tasks/schedule.py, planning/planner.py), box off goal, then (a task without a box: every phase must reach its
-goal) phase timeout, and solver failures. A phase that stalled is named after an earlier category's reason, as
-before or after it: a carry that waits in vain because the box fell earlier did not cause the fall."""
+phase waited its whole wait for its goal and never reached it; one that waits with the box not held re-plans
+once as it starts: tasks/schedule.py, planning/planner.py), box off goal, then (a task without a box: every
+phase must reach its goal) phase timeout, and solver failures. A phase that stalled is named after an earlier
+category's reason, as before or after it: a carry that waits in vain because the box fell earlier did not cause
+the fall."""
 
 from __future__ import annotations
 
