@@ -1,7 +1,7 @@
 """A phase that waited for its goal past its end (tasks/schedule.py) is reported late by its wait, and timed out when
 its goal was still not reached as the next phase started (report/metrics.py `phase_outcomes`), on synthetic steps
 tables of the smoke scenario's phases (raise 3 s, approach 4 s, ...); in a closed-loop run, a phase that starts
-waiting re-plans once, and one that waits in vain stalls the run."""
+waiting re-plans once and presses its goal harder, and one that waits in vain stalls the run."""
 
 import json
 
@@ -79,17 +79,36 @@ def test_a_phase_that_reached_its_goal_early_but_waited_in_vain_at_its_end_timed
     assert approach["completed_s"] is not None and approach["timed_out"] and approach["late_s"] == pytest.approx(4.0)
 
 
-def test_a_phase_sent_out_of_reach_re_plans_once_as_it_starts_waiting_and_then_stalls_the_run(tmp_path):
-    """The raise's hands 2.4 m apart, wider than the arms spread: it waits its 3 s in vain."""
+@pytest.fixture(scope="module")
+def out_of_reach(tmp_path_factory) -> tuple[pd.DataFrame, dict]:
+    """A closed-loop box_lift whose raise asks the hands 2.4 m apart, wider than the arms spread: it waits its 3 s
+    in vain. Its steps table and its summary's task section."""
     wide = [f"task.phases.raise.hands.{h}=[0.76, {y}, 1.245]" for h, y in (("left", 1.2), ("right", -1.2))]
     sets = [arg for o in [*wide, "sim.duration=4.0"] for arg in ("--set", o)]
-    out = tmp_path / "run"
+    out = tmp_path_factory.mktemp("late") / "run"
     result = CliRunner().invoke(
         app, ["run", str(ROOT / "scenarios" / "smoke" / "box_lift.yaml"), "--out", str(out), "--quiet", *sets]
     )
     assert result.exit_code == 0, result.output
-    steps, task = pd.read_csv(out / "steps.csv"), json.loads((out / "summary.json").read_text())["task"]
+    return pd.read_csv(out / "steps.csv"), json.loads((out / "summary.json").read_text())["task"]
+
+
+def test_a_phase_sent_out_of_reach_re_plans_once_as_it_starts_waiting_and_then_stalls_the_run(out_of_reach):
+    steps, task = out_of_reach
     replanned = steps[steps["replanned"].astype(bool)]
     assert list(replanned["phase"]) == ["raise"]  # once, in the phase that waited
     assert replanned["t"].iloc[0] == steps["t"][steps["delay_s"] > 0].iloc[0]  # as it started to wait
     assert task["success"] is False and task["failure"]["category"] == "stalled"
+
+
+def test_a_waiting_phase_presses_its_goal_harder_from_its_wait_s_first_second_on(out_of_reach, scenario):
+    """The hands' tracking weight is 1 until the phase waits, then ramps up to mpc.weights.late_task within a
+    second, and the next phase starts at 1 again."""
+    steps, _ = out_of_reach
+    raise_ = steps[steps["phase"] == "raise"]
+    waiting = raise_[raise_["delay_s"] > 0]
+    assert (raise_["task_weight"][raise_["delay_s"] == 0] == 1.0).all()
+    pressed = waiting[waiting["delay_s"] >= 1.0]
+    assert (pressed["task_weight"] == scenario.mpc.weights.late_task).all() and len(pressed) > 0
+    assert waiting["task_weight"].is_monotonic_increasing and waiting["task_weight"].iloc[0] > 1.0
+    assert (steps["task_weight"][steps["phase"] == "approach"] == 1.0).all()

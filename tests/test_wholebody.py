@@ -48,12 +48,13 @@ def _hands(eva, scenario, transcription, t=9.0):
 
 
 def _reference(eva, scenario, transcription, t=9.0, chest=0.0, stance=(0.0, 0.0, 0.0, 0.0)):
-    """The problem's parameters p: the hands' rows, the chest joints' reference rows (`chest` [rad]), then the
-    base's stance (x, y, yaw, weight)."""
+    """The problem's parameters p: the hands' rows, the chest joints' reference rows (`chest` [rad]), the base's
+    stance (x, y, yaw, weight), then the hands' tracking weight multiplier (1)."""
     hands = _hands(eva, scenario, transcription, t)
     K = hands.shape[1]
     chest_rows = np.full((len(scenario.robot.chest_joints), K), chest)
-    return np.vstack([hands, chest_rows, np.tile(np.asarray(stance)[:, None], K)]).ravel(order="F")
+    rows = [hands, chest_rows, np.tile(np.asarray(stance)[:, None], K), np.ones((1, K))]
+    return np.vstack(rows).ravel(order="F")
 
 
 @pytest.mark.parametrize("transcription", ["bezier", "traditional"])
@@ -358,3 +359,24 @@ def test_a_chest_reference_turns_the_chest_and_the_base_turns_back_as_much_so_th
     assert abs(q_end[chest] + (q_end[yaw] - eva.home[yaw])) < 0.05  # the arms take up the rest (3 deg)
     hands = np.array([p.ravel() for p, _ in eva.hand_poses_numeric(q_end)])
     assert np.abs(hands - [p.ravel() for p, _ in poses]).max() < 0.02
+
+
+def test_a_larger_task_weight_makes_the_posture_cost_yield(eva):
+    """Hands asked 20 cm higher against a stiff posture cost: a tenfold task weight leaves them less than half as far
+    short at the horizon's end."""
+    scenario = load_scenario(TABLE1, ["mpc.knots=6", "solver.name=ipopt", "mpc.weights.posture=0.2"])
+    K = scenario.mpc.knots
+    poses = eva.hand_poses_numeric(eva.home)
+    raised = np.array([[p.ravel() + [0.0, 0.0, 0.2] for p, _ in poses]] * K)
+    short = {}
+    for weight in (1.0, 10.0):
+        mpc = WholeBodyMPC(eva, scenario, scenario.sim.control_dt)
+        _, result = mpc.step(
+            eva.home.copy(), hand_rows(raised, np.array([[r for _, r in poses]] * K)), task_weight=weight
+        )
+        assert result.success
+        q_end = mpc.transcription.knots(result.x)[0][:, -1]
+        hands = np.array([p.ravel() for p, _ in eva.hand_poses_numeric(q_end)])
+        short[weight] = float(np.abs(hands - raised[-1]).max())
+    assert short[1.0] > 0.02  # premise: the posture cost holds the hands more than 2 cm short
+    assert short[10.0] < 0.5 * short[1.0]

@@ -62,7 +62,7 @@ def run_loop(
             solve = time.perf_counter()
             hands = hand_rows(targets.positions, targets.rotations)
             command, result = mpc.step(
-                obs.q, hands, targets.force_ref, obs.pad_forces, targets.chest_ref, targets.stance
+                obs.q, hands, targets.force_ref, obs.pad_forces, targets.chest_ref, targets.stance, targets.task_weight
             )
             end = time.perf_counter()
             truth = sim.truth()

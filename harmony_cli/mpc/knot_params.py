@@ -6,6 +6,7 @@
     if compliant  per hand F_ref, then per hand F_meas [N]
     per chest joint  its reference [rad] (0: straight; a stance pose's where the written stance is blocked)
     stance        the base's reference x, y [m], yaw [rad], then its weight (0: none)
+    task weight   the hands' tracking rows' weight multiplier (1; more where a late phase presses its goal)
 
 The task residual keeps the hands' rows in the same order: per hand 3 position rows, then 9 rotation rows."""
 
@@ -29,6 +30,11 @@ class KnotLayout:
 
     @property
     def rows(self) -> int:
+        return self.task_weight + 1
+
+    @property
+    def task_weight(self) -> int:
+        """The row of the hands' tracking weight multiplier."""
         return self.stance_start + STANCE_ROWS
 
     @property
@@ -90,11 +96,12 @@ class KnotLayout:
         force_meas: np.ndarray | None = None,
         chest_ref: np.ndarray | None = None,
         stance: np.ndarray | None = None,
+        task_weight: float = 1.0,
     ) -> np.ndarray:
         """The parameter vector vec(rows x K): hands (12 hands x K, see hand_rows), obstacle poses (POSE_ROWS
         obstacles x K), when compliant the force references (hands x K) and measured forces (hands,) held over K,
         then the chest joints' references (chest joints x K; 0 by default), then the base's stance (STANCE_ROWS x K:
-        x, y, yaw, weight; none by default)."""
+        x, y, yaw, weight; none by default), then the hands' tracking weight multiplier, held over K."""
         rows = [hands, obstacle_poses]
         if self.compliant:
             K = hands.shape[1]
@@ -106,6 +113,7 @@ class KnotLayout:
         if self.n_chest:
             rows.append(np.zeros((self.n_chest, K)) if chest_ref is None else chest_ref)
         rows.append(np.zeros((STANCE_ROWS, K)) if stance is None else stance)
+        rows.append(np.full((1, K), task_weight))
         return np.vstack(rows).ravel(order="F")
 
 

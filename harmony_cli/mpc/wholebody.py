@@ -101,14 +101,18 @@ class WholeBodyMPC:
         force_meas: np.ndarray | None = None,
         chest_ref: np.ndarray | None = None,
         stance: np.ndarray | None = None,
+        task_weight: float = 1.0,
     ) -> tuple[Command, SolveResult]:
         """hand_ref: (12 * hands) x K references at the knot times (knot_params.hand_rows); with admittance,
         force_ref: hands x K squeeze force references and force_meas: (hands,) measured pad normal forces [N];
         chest_ref: chest joints x K references of the chest joints' cost (None: 0); stance: 4 x K, the base's
-        reference x, y, yaw and its weight at each knot (None: no stance)."""
+        reference x, y, yaw and its weight at each knot (None: no stance); task_weight: the hands' tracking
+        weights' multiplier (knot_params.KnotLayout)."""
         if self.force_filter is not None and force_meas is not None:
             self.force_seen = self.force_filter(force_meas)
-        self.params = self.layout.stack(hand_ref, self.obstacle_poses, force_ref, self.force_seen, chest_ref, stance)
+        self.params = self.layout.stack(
+            hand_ref, self.obstacle_poses, force_ref, self.force_seen, chest_ref, stance, task_weight
+        )
         t, dt, robot = self.transcription, self.control_dt, self.robot
         q_init = np.concatenate([q_now, np.zeros(t.n_dof - q_now.size)])  # the compliant offsets start at 0
         q_init[self.pinned] = robot.home[self.pinned]

@@ -37,9 +37,10 @@ def task_residual_function(
     compliant: bool = False,
     n_chest: int = 0,
 ) -> cs.Function:
-    """Weighted per-knot residual r(q, ref) = [sqrt(w_p/K)(p - p_ref - dp n); sqrt(w_o/K) vec(R - R_ref)] per
-    hand, then if `soft`, sqrt(w_c/K) max(0, -margin) for every clearance margin (squared in the cost: C1), then
-    the base's stance: sqrt(w_s/K) w_k [x - x_ref; y - y_ref; 2 STANCE_ARM sin((yaw - yaw_ref) / 2)] with the
+    """Weighted per-knot residual r(q, ref) = sqrt(m) [sqrt(w_p/K)(p - p_ref - dp n); sqrt(w_o/K) vec(R - R_ref)]
+    per hand, with the knot's task weight multiplier m (a parameter: 1 unless a late phase presses its goal), then
+    if `soft`, sqrt(w_c/K) max(0, -margin) for every clearance margin (squared in the cost: C1), then the base's
+    stance: sqrt(w_s/K) w_k [x - x_ref; y - y_ref; 2 STANCE_ARM sin((yaw - yaw_ref) / 2)] with the
     knot's stance weight w_k (a parameter: 0 where there is no stance to keep; the yaw's error wraps).
 
     q = [joints; dp per hand if compliant]: dp is the compliant offset along the pad normal n = R e_z.
@@ -51,11 +52,15 @@ def task_residual_function(
     ref = cs.SX.sym("ref", layout.rows)
     wp, wo = np.sqrt(weights.position / n_knots), np.sqrt(weights.orientation / n_knots)
     parts = []
+    scale = cs.sqrt(ref[layout.task_weight])
     for h in range(layout.n_hands):
         p, R = robot.hand_pose(h, q[:nd])
         if compliant:
             p = p - R[:, 2] * q[nd + h]
-        parts += [wp * (p - ref[layout.hand_position(h)]), wo * (cs.vec(R) - ref[layout.hand_rotation(h)])]
+        parts += [
+            scale * wp * (p - ref[layout.hand_position(h)]),
+            scale * wo * (cs.vec(R) - ref[layout.hand_rotation(h)]),
+        ]
     if soft:
         wc = np.sqrt(weights.clearance / n_knots)
         parts += [wc * cs.fmax(0, -m) for m in clearance_margins(robot, q[:nd], ref, layout, clearances, footprint)]

@@ -31,6 +31,8 @@ from harmony_cli.tasks.targets import HandTargets
 if TYPE_CHECKING:
     from harmony_cli.scenario.models import Scenario
 
+LATE_RAMP = 1.0  # [s] a waiting phase's task weight ramps in over this (no jump in a held box's pad forces)
+
 
 class Planner:
     """Re-plans every `planner.period` control steps and samples the plan at t + knot times."""
@@ -121,7 +123,19 @@ class Planner:
         stance = self.stance_plan.stance(active.index, positions, base) if pull else None
         reliefs = self.stance_plan.reliefs.get(active.index)
         now = positions[0] if now is None else now
-        return HandTargets(positions, rotations, now, force_ref, chest_ref, stance, reliefs, log)
+        task_weight = self._task_weight(active.index)
+        log["task_weight"] = task_weight
+        return HandTargets(positions, rotations, now, force_ref, chest_ref, stance, reliefs, task_weight, log)
+
+    def _task_weight(self, phase: int) -> float:
+        """The whole-body MPC's multiplier of the hands' tracking weights: 1, or for a phase waiting for its goal,
+        ramped up to `mpc.weights.late_task` over its wait's first LATE_RAMP seconds. The posture, symmetry and
+        chest costs resolve the arms' redundancy; a hand held off its goal by them is a task they should yield
+        to, while a phase that arrives on time is tracked as tuned."""
+        waited = float(self.schedule.waited[phase])
+        if waited <= 0.0:
+            return 1.0
+        return 1.0 + (self.scenario.mpc.weights.late_task - 1.0) * min(1.0, waited / LATE_RAMP)
 
     def _goal(self, t: float, obs: Observation, active: ActivePhase) -> np.ndarray:
         """The hands' goal (hands, 3) of `active` from the observation: box-relative targets where the box is, a held

@@ -28,6 +28,12 @@ class Weights(Strict):
         ge=0,
         description="the base towards the stance the planning layer chose, where it chose one [1/m^2] (0: off)",
     )
+    late_task: float = Field(
+        100.0,
+        ge=1,
+        description="a phase waiting for its goal multiplies the hands' tracking weights by up to this, ramped in "
+        "over its wait's first second, so that the posture regularisers yield to the task (1: off)",
+    )
 
 
 class MpcSpec(Strict):

@@ -19,6 +19,7 @@ class HandTargets:
     chest_ref: np.ndarray | None = None  # (chest joints, K) [rad] where the chest cost pulls (None: straight)
     stance: np.ndarray | None = None  # (4, K) where the base's cost pulls: x, y [m], yaw [rad], weight (None: none)
     reliefs: np.ndarray | None = None  # (clearances,) [m] how far the whole-body MPC's margins are lowered (None: 0)
+    task_weight: float = 1.0  # the hands' tracking weights' multiplier in the whole-body MPC (a late phase's > 1)
     log: dict = field(default_factory=dict)  # fields for the step record (phase, planner status and timing)
 
 
