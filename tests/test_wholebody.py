@@ -86,7 +86,8 @@ def test_gauss_newton_hessian_equals_exact_hessian_where_residuals_vanish(eva, r
     rotations = np.array([[r for _, r in pose] for pose in poses])
     chest = q_knots[[eva.index(j) for j in scenario.robot.chest_joints]]
     no_stance = np.zeros((4, tr.n_knots))
-    p = np.vstack([hand_rows(positions, rotations), chest, no_stance]).ravel(order="F")  # the trajectory itself
+    unit = np.ones((1, tr.n_knots))  # the hands' task weight multiplier
+    p = np.vstack([hand_rows(positions, rotations), chest, no_stance, unit]).ravel(order="F")  # the trajectory itself
     H_gn, _ = KnotDerivatives(problem)(x, p)
     f = sum(problem.terms.values())
     H_exact = np.array(cs.Function("h", [problem.x, problem.p], [cs.hessian(f, problem.x)[0]])(x, p))
