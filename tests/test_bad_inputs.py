@@ -205,6 +205,17 @@ def _entity_bomb() -> bytes:
     return b'<?xml version="1.0"?><!DOCTYPE r [' + b"".join(entities) + b"]><robot name='&j;'/>"
 
 
+def _two_hands(inside: bytes = b"", joint: bytes = b"") -> bytes:
+    """A URDF with the scenario's two hands on arm joints, `inside` its root link and `joint` in the left arm's."""
+    arms = b"".join(
+        b'<link name="%s_grasp"/><joint name="%s_JOINT" type="revolute"><parent link="body"/><child link="%s_grasp"/>'
+        b'<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/>%s</joint>'
+        % (arm, arm, arm, joint if arm == b"LARM" else b"")
+        for arm in (b"LARM", b"RARM")
+    )
+    return b'<robot name="r"><link name="body">%s</link>%s</robot>' % (inside, arms)
+
+
 URDF_CASES = {
     # (what to write as robot.urdf, pieces)
     "urdf-not-xml": (b"this is not xml\n", ["robot.urdf", "not XML", "line 1"]),
@@ -219,6 +230,26 @@ URDF_CASES = {
     "urdf-entity-bomb": (_entity_bomb(), ["robot.urdf", "not XML"]),
     "urdf-is-a-scenario": (b"name: x\nreference: {type: hold}\n", ["robot.urdf", "not XML"]),
     "urdf-no-hands": (b'<robot name="r"><link name="a"/></robot>', ["LARM_grasp", "not a link"]),
+    "urdf-joint-type": (
+        _two_hands().replace(b'type="revolute"', b'type="hinge"', 1),
+        ["robot.urdf: robot.urdf: joint 'LARM_JOINT'", "'hinge'", "choose one of: revolute, continuous"],
+    ),
+    "urdf-collision-shape": (
+        _two_hands(b"<collision><geometry><plane/></geometry></collision>"),
+        ["robot.urdf: robot.urdf: link 'body'", "<plane>", "choose one of: box (size), cylinder"],
+    ),
+    "urdf-missing-mesh": (
+        _two_hands(b'<visual><geometry><mesh filename="body.stl"/></geometry></visual>'),
+        ["robot.urdf: robot.urdf: mesh 'body.stl' not found"],
+    ),
+    "urdf-inertial-no-mass": (
+        _two_hands(b'<inertial><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>'),
+        ["robot.urdf: robot.urdf: OpTaS (urdf_parser_py) cannot read it", "inertial", "mass"],
+    ),
+    "urdf-empty-dynamics": (
+        _two_hands(joint=b"<dynamics/>"),
+        ["robot.urdf: robot.urdf: Pinocchio (urdfdom) cannot read it", "no damping and no friction"],
+    ),
 }
 
 

@@ -64,6 +64,38 @@ def test_a_declared_tool_frame_sits_on_its_parent_and_carries_the_wrist_sensor(t
         sim.close()
 
 
+HAND_ON_WRIST = ", end_effectors: {left: l_hand, right: r_grasp}"  # l_hand hangs from the wrist's yaw joint
+
+
+def test_a_hand_link_on_a_movable_joint_gets_the_tool_frame_a_zero_offset_tools_entry_gives(tmp_path, rng):
+    _, default = _robot(tmp_path, HAND_ON_WRIST)
+    _, written = _robot(tmp_path, HAND_ON_WRIST + ", tools: {left: {parent: l_hand, xyz: [0, 0, 0]}}")
+    assert default.urdf == written.urdf  # the same prepared URDF
+    assert default.end_effectors == written.end_effectors == ("harmony_left_tool", "r_grasp")
+    assert default.wrist_sensors == written.wrist_sensors == ("harmony_left_pad_joint", "r_ft_joint")
+    for q in rng.uniform(default.lower.clip(-2), default.upper.clip(max=2), size=(5, default.n_dof)):
+        np.testing.assert_allclose(
+            _position(default, "harmony_left_tool", q), _position(default, "l_hand", q), atol=1e-9
+        )
+        np.testing.assert_allclose(
+            _rotation(default, "harmony_left_tool", q), _rotation(default, "l_hand", q), atol=1e-9
+        )
+    assert "urdf: tool frames at the hand link (a movable joint holds it): 1: left" in default.notes
+
+
+def test_an_explicit_tool_wins_over_the_default_one_at_a_hand_link(tmp_path):
+    _, robot = _robot(tmp_path, HAND_ON_WRIST + ", tools: {left: {parent: l_hand, xyz: [0.05, 0, 0]}}")
+    q = robot.home
+    hand_p, hand_r = _position(robot, "l_hand", q), _rotation(robot, "l_hand", q)
+    np.testing.assert_allclose(_position(robot, "harmony_left_tool", q), hand_p + hand_r @ [0.05, 0, 0], atol=1e-9)
+    assert not any("tool frames at the hand link" in note for note in robot.notes)
+
+
+def test_a_hand_link_whose_joint_is_locked_keeps_that_joint_as_its_wrist_sensor(tmp_path):
+    _, robot = _robot(tmp_path, HAND_ON_WRIST + ", active_joints: ['l_shoulder_*', l_elbow, l_wrist_pitch, 'r_*']")
+    assert robot.end_effectors == ("l_hand", "r_grasp") and robot.wrist_sensors == ("l_wrist_yaw", "r_ft_joint")
+
+
 def test_revolute_home_is_in_degrees(tmp_path):
     scenario, robot = _robot(tmp_path, ", home: {l_elbow: 45}")
     assert robot.home[robot.joint_names.index("l_elbow")] == pytest.approx(np.pi / 4)

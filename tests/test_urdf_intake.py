@@ -1,8 +1,11 @@
 """URDF intake: each defect class robot packages ship, on a small synthetic dual-arm URDF, prepared and then read
-by OpTaS, Pinocchio and PyBullet, which must agree with the original robot (locked where the scenario locks)."""
+by OpTaS, Pinocchio and PyBullet, which must agree with the original robot (locked where the scenario locks); what
+no parser can read refused in one line."""
 
 from __future__ import annotations
 
+import re
+import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -13,10 +16,14 @@ import pinocchio as pin
 import pybullet
 import pytest
 from pybullet_utils.bullet_client import BulletClient
+from typer.testing import CliRunner
 
 import harmony_cli.robot.prepare as prepare_module
+from harmony_cli.cli import app
+from harmony_cli.robot.arm_points import arm_chains
 from harmony_cli.robot.prepare import PYBULLET_MAX_JOINTS, UrdfPlan, prepare_urdf
 from harmony_cli.robot.sanitize import CONTINUOUS_LIMIT, MASSLESS_LINK_MASS
+from harmony_cli.robot.urdf import joints_and_links
 
 BASE = ("base_x", "base_y", "base_yaw")
 ARMS = ("l_shoulder", "l_roll", "l_wrist", "r_shoulder", "r_roll", "r_wrist")
@@ -257,3 +264,122 @@ def test_prepared_copy_has_no_foreign_elements(tmp_path):
     prepared = prepare_urdf(synthetic_urdf(tmp_path / "robot.urdf"), PLAN, tmp_path / "cache")
     tags = {child.tag for child in ET.parse(prepared.path).getroot()}
     assert tags <= {"link", "joint", "material"}
+
+
+def _with(urdf: Path, path: Path, inside_torso: str = "", top: str = "") -> Path:
+    """A copy of `urdf` with `inside_torso` added to the torso link and `top` to the robot."""
+    text = urdf.read_text().replace('<link name="torso">', f'<link name="torso">{inside_torso}', 1)
+    path.write_text(text.replace("</robot>", f"{top}</robot>"))
+    return path
+
+
+PLUGIN = (
+    '<gazebo><plugin name="mimic" filename="libmimic.so"><joint>l_finger</joint><link name="ghost"/></plugin>'
+    '</gazebo><ros2_control name="arms"><joint name="phantom"><command_interface name="position"/></joint>'
+    "</ros2_control>"
+)
+
+
+def test_joints_and_links_inside_extensions_are_not_the_models(tmp_path):
+    plain = synthetic_urdf(tmp_path / "robot.urdf")
+    shipped = _with(plain, tmp_path / "shipped.urdf", top=PLUGIN)
+    assert joints_and_links(shipped) == joints_and_links(plain)
+
+
+def test_a_urdf_with_a_gazebo_plugin_block_prepares_to_the_same_model_as_without(tmp_path):
+    plain = synthetic_urdf(tmp_path / "robot.urdf")
+    shipped = _with(plain, tmp_path / "shipped.urdf", top=PLUGIN)
+    prepared = prepare_urdf(shipped, PLAN, tmp_path / "cache")
+    assert prepared.path.read_text() == prepare_urdf(plain, PLAN, tmp_path / "cache").path.read_text()
+    assert prepared.dropped == {"transmission": 2, "gazebo": 2, "ros2_control": 1}
+
+
+SKIN = '<material name="skin"><color rgba="0.9 0.8 0.7 1"/></material>'
+TEXTURED_SKIN = SKIN.replace("</material>", "<texture/></material>") + "<material/>"
+BOX = '<visual><geometry><box size="0.1 0.1 0.1"/></geometry></visual>'
+LOOKS = (  # what exported models carry that only colours or draws them, and the parsers cannot read
+    BOX.replace("</visual>", '<material><color rgba="1 0 0 1"/></material></visual>')
+    + "<visual/><visual><geometry/></visual><visual><geometry><mesh/></geometry></visual>"
+    '<visual><geometry><box size="1 1 1"/><sphere radius="1"/></geometry></visual>'
+    '<visual><geometry><cone radius="1"/></geometry></visual>'
+)
+
+
+def test_empty_textures_and_unreadable_looks_are_dropped_leaving_the_same_model(tmp_path):
+    plain = _with(synthetic_urdf(tmp_path / "robot.urdf"), tmp_path / "plain.urdf", BOX, SKIN)
+    shipped = _with(synthetic_urdf(tmp_path / "robot.urdf"), tmp_path / "shipped.urdf", LOOKS, TEXTURED_SKIN)
+    prepared = prepare_urdf(shipped, PLAN, tmp_path / "cache")
+    assert prepared.path.read_text() == prepare_urdf(plain, PLAN, tmp_path / "cache").path.read_text()
+    assert prepared.dropped == {"transmission": 2, "gazebo": 1, "visual": 5, "texture": 1, "material": 2}
+
+
+def test_a_scenario_whose_urdf_has_plugins_and_textures_validates(tmp_path):
+    _with(synthetic_urdf(tmp_path / "robot.urdf"), tmp_path / "shipped.urdf", LOOKS, TEXTURED_SKIN + PLUGIN)
+    scenario = tmp_path / "scenario.yaml"
+    scenario.write_text(
+        "name: x\nrobot: {urdf: shipped.urdf, end_effectors: {left: l_tool, right: r_tool}, "
+        f"active_joints: [{', '.join(ARMS)}]}}\nreference: {{type: hold}}\n"
+    )
+    result = CliRunner().invoke(app, ["validate", str(scenario)])
+    assert (result.exit_code, result.output.strip()) == (0, f"{scenario}: ok")
+
+
+MALFORMED = {  # what to replace in the synthetic URDF (regular expression -> text): what the one line says
+    "joint-type": (
+        r'(name="l_wrist") type="revolute"',
+        r'\1 type="revolut"',
+        "joint 'l_wrist': type 'revolut' is not a URDF joint type; choose one of: revolute, continuous, prismatic, "
+        "fixed, floating, planar",
+    ),
+    "collision-shape": (
+        r'<link name="torso">',
+        '<link name="torso"><collision><geometry><capsule radius="0.1" length="0.2"/></geometry></collision>',
+        "link 'torso': <collision> needs one <geometry> shape (found <capsule>); choose one of: box (size), "
+        "cylinder (radius and length), sphere (radius), mesh (filename)",
+    ),
+    "origin-commas": (
+        r'xyz="0 0.2 0.5"',
+        'xyz="0, 0.2, 0.5"',
+        "joint 'l_shoulder': <origin> xyz='0, 0.2, 0.5' is not 3",
+    ),
+    "no-limit": (r'(name="l_wrist".*?)<limit[^>]*/>', r"\1", "joint 'l_wrist': a revolute joint needs a <limit>"),
+    "limit-effort": (r' effort="50"', "", "joint 'l_shoulder': <limit> has no effort"),
+    "link-twice": (r"</robot>", '<link name="torso"/></robot>', "link 'torso' is defined more than once"),
+    "axis-zero": (r'<axis xyz="0 1 0"/>', '<axis xyz="0 0 0"/>', "joint 'l_shoulder': <axis> xyz='0 0 0' has no"),
+    "mesh-missing": (
+        r'<link name="torso">',
+        '<link name="torso"><visual><geometry><mesh filename="meshes/none.stl"/></geometry></visual>',
+        "mesh 'meshes/none.stl' not found; tried ",
+    ),
+}
+
+
+@pytest.mark.parametrize(("pattern", "replacement", "says"), MALFORMED.values(), ids=list(MALFORMED))
+def test_a_malformed_urdf_is_refused_in_one_line_naming_the_element_and_the_choices(
+    tmp_path, pattern, replacement, says
+):
+    urdf = synthetic_urdf(tmp_path / "robot.urdf")
+    urdf.write_text(re.sub(pattern, replacement, urdf.read_text(), count=1, flags=re.S))
+    with pytest.raises((ValueError, FileNotFoundError)) as info:
+        prepare_urdf(urdf, PLAN, tmp_path / "cache")
+    message = str(info.value)
+    assert "\n" not in message and message.startswith("robot.urdf: robot.urdf: ") and says in message, message
+
+
+def test_a_fixed_joint_with_a_zero_axis_in_an_arm_is_read_as_turning_nothing(tmp_path):
+    urdf = synthetic_urdf(tmp_path / "robot.urdf")
+    text = re.sub(
+        r'(name="l_roll") type="continuous"(.*?)<axis xyz="0 1 0"/>',
+        r'\1 type="fixed"\2<axis xyz="0 0 0"/>',
+        urdf.read_text(),
+        count=1,
+        flags=re.S,
+    )
+    urdf.write_text(text)
+    plan = UrdfPlan(BASE, active=tuple(j for j in ARMS if j != "l_roll"), home=PLAN.home, keep=PLAN.keep)
+    prepared = prepare_urdf(urdf, plan, tmp_path / "cache")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        left, _ = arm_chains(prepared.path, ("l_tool", "r_tool"), 0.05)
+    assert [j.kind for j in left.joints] == ["revolute", "fixed", "revolute"]
+    assert all(np.isfinite(j.axis).all() for j in left.joints)

@@ -227,12 +227,12 @@ def test_a_wrong_sensor_joint_is_one_line_naming_file_field_value_and_choices(tm
 def test_sensor_joints_default_to_the_joint_above_the_link_holding_the_grasp_frame():
     twin = ROOT / "scenarios/smoke/twin_arm_turn.yaml"
     spec = load_scenario(twin).robot
-    assert wrist_sensor_joints(spec, (twin.parent / spec.urdf).resolve()) == {
+    assert wrist_sensor_joints(None, spec.end_effectors, (twin.parent / spec.urdf).resolve()) == {
         "left": "l_ft_joint",
         "right": "r_ft_joint",
     }
     eva = load_scenario(TABLE1).robot
-    assert wrist_sensor_joints(eva, (TABLE1.parent / eva.urdf).resolve()) == {
+    assert wrist_sensor_joints(None, eva.end_effectors, (TABLE1.parent / eva.urdf).resolve()) == {
         "left": "LARM_TOOL_JOINT",
         "right": "RARM_TOOL_JOINT",
     }

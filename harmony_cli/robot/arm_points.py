@@ -144,6 +144,8 @@ def _path(parent_joint: dict[str, ET.Element], link: str) -> list[str]:
 def _chain_joint(joint: ET.Element, points: np.ndarray) -> ChainJoint:
     axis = joint.find("axis")
     xyz = np.array([float(v) for v in ("1 0 0" if axis is None else axis.get("xyz", "1 0 0")).split()])
+    if not xyz.any():  # a fixed joint's axis, which packages often write as zero: it turns nothing
+        xyz = np.array([1.0, 0.0, 0.0])
     return ChainJoint(
         required(joint, "name", "joint"), str(joint.get("type")), _origin(joint), xyz / np.linalg.norm(xyz), points
     )

@@ -28,8 +28,14 @@ def gravity_torques(urdf: Path, joint_names: tuple[str, ...], q: np.ndarray) -> 
 def _pinocchio_gravity(urdf: Path, joint_names: tuple[str, ...], q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     import pinocchio as pin  # ~0.3 s to import: only when the cache does not have the answer
 
-    with captured_output():
-        model = pin.buildModelFromUrdf(str(urdf))
+    with captured_output() as printed:
+        try:
+            model = pin.buildModelFromUrdf(str(urdf))
+        except ValueError:
+            model = None
+    if model is None:  # urdfdom prints why it refuses a file; its exception says only that it does
+        reasons = [line.removeprefix("Error:").strip() for line in printed if line.startswith("Error:")]
+        raise ValueError(reasons[0] if reasons else f"{urdf.name} is not a valid URDF model")
     data = model.createData()
     config = pin.neutral(model)
     index = {name: model.joints[model.getJointId(name)] for name in joint_names}

@@ -18,7 +18,9 @@ from harmony_cli.names import closest
 from harmony_cli.robot.arm_points import ArmChain, arm_chains
 from harmony_cli.robot.gravity import gravity_torques
 from harmony_cli.robot.prepare import UrdfPlan, prepare_urdf
+from harmony_cli.robot.tools import tool_link
 from harmony_cli.robot.urdf import joint_types, wrist_sensor_joints
+from harmony_cli.robot.urdf_form import refused_by
 
 if TYPE_CHECKING:
     from optas.models import RobotModel
@@ -110,16 +112,18 @@ def urdf_plan(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) -
         tools=dict(spec.tools),
         mount=None if spec.mount is None else (list(spec.mount.xyz), list(spec.mount.rpy_deg)),
         keep=tuple(spec.end_effectors.values()) + keep,
+        hands=dict(spec.end_effectors),
     )
 
 
 def load_robot(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) -> Robot:
     """Build the robot of a validated scenario `robot` section from its prepared URDF (robot/prepare.py); the
-    URDF parser's complaints go to `Robot.notes`, not the console. ValueError for what cannot be built."""
+    URDF parser's complaints go to `Robot.notes`, not the console. ValueError for what cannot be built, a parser's
+    refusal of the URDF included."""
     prepared = prepare_urdf(
         (scenario_dir / spec.urdf).resolve(), urdf_plan(spec, scenario_dir, keep), CACHE_DIR / "urdf"
     )
-    with captured_output() as parser_output:
+    with refused_by("OpTaS (urdf_parser_py)", spec.urdf), captured_output() as parser_output:
         model = optas_robot_model()(urdf_filename=str(prepared.path), time_derivs=[0])
     names = tuple(model.actuated_joint_names)
     home = np.zeros(len(names))
@@ -133,7 +137,9 @@ def load_robot(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) 
         for joint in joints:
             if joint not in names:
                 raise ValueError(f"robot.{field}: {joint!r} is not an active joint; {closest(joint, names)}")
-    torque, effort = gravity_torques(prepared.path, names, home)
+    with refused_by("Pinocchio (urdfdom)", spec.urdf):
+        torque, effort = gravity_torques(prepared.path, names, home)
+    end_effectors = spec.end_effectors | {hand: tool_link(hand) for hand in prepared.hand_tools}
     return Robot(
         urdf=prepared.path,
         model=model,
@@ -141,9 +147,9 @@ def load_robot(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) 
         lower=np.array(model.lower_actuated_joint_limits).ravel(),
         upper=np.array(model.upper_actuated_joint_limits).ravel(),
         velocity_limit=np.array(model.velocity_actuated_joint_limits).ravel(),
-        end_effectors=tuple(spec.end_effectors.values()),
-        hand_names=tuple(spec.end_effectors.keys()),
-        wrist_sensors=tuple(wrist_sensor_joints(spec, prepared.path).values()),
+        end_effectors=tuple(end_effectors.values()),
+        hand_names=tuple(end_effectors.keys()),
+        wrist_sensors=tuple(wrist_sensor_joints(spec.wrist_sensors, end_effectors, prepared.path).values()),
         home=home,
         base_joints=tuple(names.index(j) for j in spec.base_joints),
         pinned_joints=tuple(names.index(j) for j in spec.pinned_joints),
@@ -155,5 +161,5 @@ def load_robot(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) 
         actuators=spec.actuators,
         arms=()
         if spec.arm_radius is None
-        else arm_chains(prepared.path, tuple(spec.end_effectors.values()), spec.arm_radius),
+        else arm_chains(prepared.path, tuple(end_effectors.values()), spec.arm_radius),
     )

@@ -1,8 +1,9 @@
 """Make a robot package's URDF loadable by harmony, as a prepared copy in the cache.
 
-In order: elements and joint types the parsers reject or misread are made explicit (robot/sanitize.py); the
-joints a scenario does not use are locked (fixed at their home value; mimic joints follow their master); declared
-tool frames are added (robot/tools.py); the virtual planar base goes above the root (robot/placement.py); links
+In order: elements and joint types the parsers reject or misread are made explicit (robot/sanitize.py) and what
+remains is checked for their form (robot/urdf_form.py); the joints a scenario does not use are locked (fixed at
+their home value; mimic joints follow their master); tool frames are added, declared ones and one at each hand link
+no fixed joint holds (robot/tools.py); the virtual planar base goes above the root (robot/placement.py); links
 without inertia get a small one; fixed links merge into their parents when PyBullet could not take them all
 (robot/reduce.py); mesh filenames become absolute paths, so the copy can live in the cache.
 """
@@ -14,6 +15,7 @@ import hashlib
 import os
 import tempfile
 import xml.etree.ElementTree as ET
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -21,17 +23,21 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from harmony_cli.names import closest
+from harmony_cli.robot.origin import pose_matrix
 from harmony_cli.robot.placement import ensure_base_joints, root_link_of
 from harmony_cli.robot.reduce import lock_joints, merge_fixed_links
 from harmony_cli.robot.sanitize import (
     Mimic,
     add_missing_inertials,
     continuous_to_revolute,
+    drop_unreadable_looks,
     mimic_joints,
+    name_robot,
     strip_foreign_elements,
 )
-from harmony_cli.robot.tools import add_tool
+from harmony_cli.robot.tools import PAD, add_tool, bare_hands, tool_link
 from harmony_cli.robot.urdf import required
+from harmony_cli.robot.urdf_form import check_form
 
 if TYPE_CHECKING:
     from harmony_cli.scenario.robot import ToolSpec
@@ -52,6 +58,7 @@ class UrdfPlan:
     tools: dict[str, ToolSpec] = field(default_factory=dict)
     mount: tuple[list[float], list[float]] | None = None  # xyz [m], rpy [deg] of the root on the base
     keep: tuple[str, ...] = ()  # links that must stay links (end effectors, pushed links)
+    hands: dict[str, str] = field(default_factory=dict)  # hand -> end-effector link (a tool frame at it: see tools.py)
 
 
 @dataclass(frozen=True)
@@ -62,9 +69,10 @@ class PreparedUrdf:
     home: dict[str, float]  # every joint the plan's home names [rad | m]; continuous joints wrapped to (-pi, pi]
     continuous: tuple[str, ...]  # now revolute joints with wide limits
     locked: dict[str, float]  # now fixed joints, at these values [rad | m]
-    dropped: dict[str, int]  # top-level element tag -> how many were dropped
+    dropped: dict[str, int]  # element tag -> how many were dropped (foreign top-level ones, unreadable looks)
     massless: tuple[str, ...]  # links given a small inertia
     merged: tuple[str, ...]  # links merged into their parents
+    hand_tools: tuple[str, ...] = ()  # hands given a tool frame at their link (no fixed joint holds it)
 
     def notes(self) -> list[str]:
         """One line per kind of change, for run.log and `harmony robots show`."""
@@ -74,6 +82,7 @@ class PreparedUrdf:
             "locked joints": [f"{j}={v:.4g}" for j, v in self.locked.items()],
             "links given a small inertia": list(self.massless),
             "fixed links merged into their parents": list(self.merged),
+            "tool frames at the hand link (a movable joint holds it)": list(self.hand_tools),
         }
         return [f"urdf: {kind}: {len(items)}: {', '.join(items)}" for kind, items in kinds.items() if items]
 
@@ -82,9 +91,7 @@ def prepare_urdf(urdf: Path, plan: UrdfPlan, cache_dir: Path) -> PreparedUrdf:
     """Prepare `urdf` for `plan`; the original path comes back when nothing had to change, otherwise the copy
     written to `cache_dir` as `<stem>_<content hash>.urdf`. ValueError (`robot.<field>: ...`) for what cannot be."""
     original, urdf = Path(urdf), Path(urdf).resolve()
-    tree = ET.parse(urdf, parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
-    robot = tree.getroot()
-    dropped = strip_foreign_elements(robot)
+    robot, dropped, named = _model(urdf)
     mimics = mimic_joints(robot)
     home = home_values(robot, plan.home, urdf, plan.base_joints)
     movable = [
@@ -98,18 +105,38 @@ def prepare_urdf(urdf: Path, plan: UrdfPlan, cache_dir: Path) -> PreparedUrdf:
     lock_joints(robot, locked)
     continuous = continuous_to_revolute(robot)
     for hand, tool in plan.tools.items():
-        add_tool(robot, hand, tool)
+        add_tool(robot, hand, tool.parent, pose_matrix(tool.xyz, np.deg2rad(tool.rpy_deg)), tool.pad)
+    hand_tools = bare_hands(robot, {hand: link for hand, link in plan.hands.items() if hand not in plan.tools})
+    for hand, link in hand_tools.items():
+        add_tool(robot, hand, link, np.eye(4), PAD)
     added_base = ensure_base_joints(robot, urdf, plan.base_joints, plan.mount)
     massless = add_missing_inertials(robot, root_link_of(robot, urdf))
     merged = []
     if len(robot.findall("joint")) > PYBULLET_MAX_JOINTS:
-        merged = merge_fixed_links(robot, _fixed_chains(robot, plan.keep))
+        merged = merge_fixed_links(robot, _fixed_chains(robot, plan.keep + tuple(map(tool_link, hand_tools))))
     meshes = _resolve_mesh_filenames(robot, urdf, list(plan.package_paths))
     path = original
-    if dropped or locked or continuous or plan.tools or added_base or massless or merged or meshes:
-        ET.indent(tree, space="  ")
+    changed = dropped or named or locked or continuous or plan.tools or hand_tools or added_base or massless or merged
+    if changed or meshes:
+        ET.indent(robot, space="  ")
         path = _write_cached(f'<?xml version="1.0"?>\n{ET.tostring(robot, encoding="unicode")}\n', urdf.stem, cache_dir)
-    return PreparedUrdf(path, home, tuple(continuous), locked, dropped, tuple(massless), tuple(merged))
+    return PreparedUrdf(
+        path, home, tuple(continuous), locked, dropped, tuple(massless), tuple(merged), tuple(hand_tools)
+    )
+
+
+def _model(urdf: Path) -> tuple[ET.Element, dict[str, int], bool]:
+    """`urdf`'s <robot> with what the parsers reject or misread made explicit and its form checked; the elements
+    dropped (tag -> how many) and whether the robot had to be named. ValueError (`robot.urdf: ...`) for a
+    malformed one."""
+    robot = ET.parse(urdf, parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))).getroot()
+    dropped = dict(Counter(strip_foreign_elements(robot)) + Counter(drop_unreadable_looks(robot)))
+    named = name_robot(robot, urdf.stem)
+    try:
+        check_form(robot)
+    except ValueError as err:
+        raise ValueError(f"robot.urdf: {urdf.name}: {err}") from None
+    return robot, dropped, named
 
 
 def home_values(
@@ -186,31 +213,33 @@ def _fixed_chains(robot: ET.Element, links: tuple[str, ...]) -> set[str]:
 
 
 def _resolve_mesh_filenames(robot: ET.Element, urdf: Path, package_paths: list[Path]) -> bool:
-    """Rewrite package:// and relative mesh filenames as absolute paths; True if any changed."""
+    """Rewrite package:// and relative mesh filenames as absolute paths; True if any changed. FileNotFoundError
+    (`robot.urdf: ...`) for a mesh file that is not there: PyBullet would refuse the whole URDF without naming it."""
     changed = False
     for mesh in robot.iter("mesh"):
         filename = mesh.get("filename", "")
-        if filename.startswith(PACKAGE_SCHEME):
-            resolved = _resolve_package_uri(filename, urdf, package_paths)
-        elif filename and "://" not in filename and not Path(filename).is_absolute():
-            resolved = str((urdf.parent / filename).resolve())
-        else:
+        if "://" in filename and not filename.startswith(PACKAGE_SCHEME):
             continue
-        mesh.set("filename", resolved)
-        changed = True
+        resolved = _mesh_file(filename, urdf, package_paths)
+        if resolved != filename:
+            mesh.set("filename", resolved)
+            changed = True
     return changed
 
 
-def _resolve_package_uri(uri: str, urdf: Path, package_paths: list[Path]) -> str:
-    """First existing `<search>/<pkg>/<rest>` or `<search>/<rest>` over the search paths."""
-    package, _, rest = uri[len(PACKAGE_SCHEME) :].partition("/")
-    tried = []
-    for search in package_paths:
-        for candidate in (search / package / rest, search / rest):
-            tried.append(str(candidate))
-            if candidate.is_file():
-                return str(candidate.resolve())
-    raise FileNotFoundError(f"{uri} (in {urdf}) not found; tried {tried or 'no package paths'}")
+def _mesh_file(filename: str, urdf: Path, package_paths: list[Path]) -> str:
+    """The file a mesh filename names: a package:// URI as the first existing `<search>/<pkg>/<rest>` or
+    `<search>/<rest>` over the search paths, a relative path from the URDF's folder, an absolute one as it is."""
+    if filename.startswith(PACKAGE_SCHEME):
+        package, _, rest = filename[len(PACKAGE_SCHEME) :].partition("/")
+        candidates = [c for search in package_paths for c in (search / package / rest, search / rest)]
+    else:
+        candidates = [urdf.parent / filename]
+    for candidate in candidates:
+        if candidate.is_file():
+            return filename if Path(filename).is_absolute() else str(candidate.resolve())
+    tried = ", ".join(map(str, candidates)) or "no robot.package_paths"
+    raise FileNotFoundError(f"robot.urdf: {urdf.name}: mesh {filename!r} not found; tried {tried}")
 
 
 def _write_cached(text: str, stem: str, cache_dir: Path) -> Path:

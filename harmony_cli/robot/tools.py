@@ -1,19 +1,19 @@
-"""Tool frames declared in a scenario: per hand a pad (a thin box, what touches the object) on a fixed joint below a
-link of the gripper, and the frame the MPCs control at the pad's outer face, z along the pad normal (out of the
-hand). The pad's joint is the wrist sensor, so the sensed wrench is what the object applies to the pad."""
+"""Tool frames, declared in a scenario or by default at a hand link no fixed joint holds: per hand a pad (a thin box,
+what touches the object) on a fixed joint below a link of the gripper, and the frame the MPCs control at the pad's
+outer face, z along the pad normal (out of the hand). The pad's joint is the wrist sensor, so the sensed wrench is
+what the object applies to the pad."""
 
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from typing import TYPE_CHECKING
+from collections.abc import Sequence
 
 import numpy as np
 
-from harmony_cli.robot.origin import pose_matrix, set_origin
+from harmony_cli.robot.origin import set_origin
+from harmony_cli.robot.urdf import required
 
-if TYPE_CHECKING:
-    from harmony_cli.scenario.robot import ToolSpec
-
+PAD = (0.06, 0.04, 0.01)  # [m] a pad's x, y and thickness unless the scenario gives them
 PAD_DENSITY = 500.0  # [kg/m^3] a plastic pad: 60 x 40 x 10 mm weigh 12 g
 
 
@@ -26,13 +26,24 @@ def pad_joint(hand: str) -> str:
     return f"harmony_{hand}_pad_joint"
 
 
-def add_tool(robot: ET.Element, hand: str, tool: ToolSpec) -> None:
-    """Add `hand`'s pad link (fixed below `tool.parent` at the tool pose) and its frame link at the pad's face."""
+def bare_hands(robot: ET.Element, hands: dict[str, str]) -> dict[str, str]:
+    """Hand -> link, of `hands` whose link hangs from a movable joint (or from none): no fixed joint above the link
+    carries the wrist sensor, so such a hand gets a tool frame at its link itself, unless the scenario declares one."""
+    parent_joint = {required(j.find("child"), "link", "joint child"): j for j in robot.findall("joint")}
+    return {
+        hand: link
+        for hand, link in hands.items()
+        if link not in parent_joint or parent_joint[link].get("type") != "fixed"
+    }
+
+
+def add_tool(robot: ET.Element, hand: str, parent: str, pose: np.ndarray, size: Sequence[float]) -> None:
+    """Add `hand`'s pad link (fixed below `parent`, its outer face at `pose` in the parent's frame, `size` x, y,
+    thickness) and its frame link at the pad's face."""
     pad_link, frame = f"harmony_{hand}_pad", tool_link(hand)
     taken = {str(link.get("name")) for link in robot.findall("link")} & {pad_link, frame}
     if taken:
         raise ValueError(f"robot.tools.{hand}: the URDF already has links named {sorted(taken)}")
-    size = tool.pad
     pad = ET.SubElement(robot, "link", name=pad_link)
     for tag in ("visual", "collision"):
         element = ET.SubElement(pad, tag)
@@ -55,9 +66,9 @@ def add_tool(robot: ET.Element, hand: str, tool: ToolSpec) -> None:
     )
     ET.SubElement(robot, "link", name=frame)  # massless: sanitising gives it MASSLESS_LINK_MASS
     joint = ET.SubElement(robot, "joint", name=pad_joint(hand), type="fixed")
-    ET.SubElement(joint, "parent", link=tool.parent)
+    ET.SubElement(joint, "parent", link=parent)
     ET.SubElement(joint, "child", link=pad_link)
-    set_origin(joint, pose_matrix(tool.xyz, np.deg2rad(tool.rpy_deg)))
+    set_origin(joint, pose)
     joint = ET.SubElement(robot, "joint", name=f"harmony_{hand}_tool_joint", type="fixed")
     ET.SubElement(joint, "parent", link=pad_link)
     ET.SubElement(joint, "child", link=frame)

@@ -4,10 +4,6 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from pathlib import Path
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from harmony_cli.scenario.robot import RobotSpec
 
 
 def required(element: ET.Element | None, attribute: str, where: str = "") -> str:
@@ -19,10 +15,12 @@ def required(element: ET.Element | None, attribute: str, where: str = "") -> str
 
 
 def joints_and_links(urdf: Path) -> tuple[set[str], set[str]]:
+    """The names of the model's joints and links: the <robot>'s own <joint> and <link> children, not elements of
+    those tags inside extensions (<gazebo>, <transmission>, ...), which name or configure other things."""
     root = ET.parse(urdf).getroot()
     return (
-        {required(j, "name", "joint") for j in root.iter("joint")},
-        {required(link, "name", "link") for link in root.iter("link")},
+        {required(j, "name", "joint") for j in root.findall("joint")},
+        {required(link, "name", "link") for link in root.findall("link")},
     )
 
 
@@ -73,16 +71,15 @@ def hand_below(link: str, urdf: Path, end_effectors: dict[str, str]) -> str | No
     return hands[0] if len(hands) == 1 else None
 
 
-def wrist_sensor_joints(spec: RobotSpec, urdf: Path) -> dict[str, str]:
-    """Hand -> force/torque sensor joint, given or derived; ValueError (`field: value: reason; choices`) if unusable."""
-    given = spec.wrist_sensors
-    if given is not None and set(given) != set(spec.end_effectors):
+def wrist_sensor_joints(given: dict[str, str] | None, end_effectors: dict[str, str], urdf: Path) -> dict[str, str]:
+    """Hand -> force/torque sensor joint, `given` or derived from the hand's end-effector link; ValueError
+    (`field: value: reason; choices`) if unusable."""
+    if given is not None and set(given) != set(end_effectors):
         raise ValueError(
-            f"robot.wrist_sensors: {sorted(given)} must name every hand exactly once; "
-            f"hands: {', '.join(spec.end_effectors)}"
+            f"robot.wrist_sensors: {sorted(given)} must name every hand exactly once; hands: {', '.join(end_effectors)}"
         )
     sensors = {}
-    for hand, link in spec.end_effectors.items():
+    for hand, link in end_effectors.items():
         choices = fixed_joints_above(urdf, link)
         if given is None:
             if not choices:

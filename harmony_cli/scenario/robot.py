@@ -9,7 +9,7 @@ from typing import Any, Literal
 from pydantic import Field, field_validator, model_validator
 
 from harmony_cli.robot.presets import PresetUnavailable, available_presets, load_preset
-from harmony_cli.robot.tools import tool_link
+from harmony_cli.robot.tools import PAD, tool_link
 from harmony_cli.scenario.base import Size3, Strict, Vector3
 
 DEFAULT_PRESET = "eva"
@@ -23,7 +23,7 @@ class ToolSpec(Strict):
     rpy_deg: Vector3 = Field(
         (0.0, 0.0, 0.0), description="the frame's orientation in the parent's [deg]: z = pad normal, out of the hand"
     )
-    pad: Size3 = Field((0.06, 0.04, 0.01), description="pad box size x, y, thickness [m], behind the face (along -z)")
+    pad: Size3 = Field(PAD, description="pad box size x, y, thickness [m], behind the face (along -z)")
 
 
 class MountSpec(Strict):
@@ -41,10 +41,13 @@ class RobotSpec(Strict):
     end_effectors: dict[str, str] = Field(
         {},
         description="hand label -> end-effector link, the frame every MPC controls (z = pad normal, out of the "
-        "hand); a hand with a tool uses the tool's frame; required without a preset",
+        "hand): any link of the arm; a hand with a tool uses the tool's frame, and a link no fixed joint holds "
+        "gets a tool at itself; required without a preset",
     )
     tools: dict[str, ToolSpec] = Field(
-        {}, description="hand label -> a tool frame and pad harmony adds (for grippers without such a frame)"
+        {},
+        description="hand label -> a tool frame and pad harmony adds (for grippers without such a frame); default: "
+        "one at the hand's link when a movable joint holds it, none otherwise",
     )
     active_joints: list[str] | None = Field(
         None,
