@@ -2,9 +2,10 @@
 
 In order: elements and joint types the parsers reject or misread are made explicit (robot/sanitize.py); the
 joints a scenario does not use are locked (fixed at their home value; mimic joints follow their master); declared
-tool frames are added (robot/tools.py); the virtual planar base goes above the root (robot/placement.py); links
-without inertia get a small one; fixed links merge into their parents when PyBullet could not take them all
-(robot/reduce.py); mesh filenames become absolute paths, so the copy can live in the cache.
+tool frames are added (robot/tools.py); mesh filenames become absolute paths, so the copy can live in the cache
+(and `mount: auto` can load the meshes, robot/ground.py); the virtual planar base goes above the root, the root
+mounted on it (robot/placement.py); links without inertia get a small one; fixed links merge into their parents
+when PyBullet could not take them all (robot/reduce.py).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from harmony_cli.names import closest
+from harmony_cli.robot.ground import Lowest, resting_mount
 from harmony_cli.robot.placement import ensure_base_joints, root_link_of
 from harmony_cli.robot.reduce import lock_joints, merge_fixed_links
 from harmony_cli.robot.sanitize import (
@@ -39,6 +41,8 @@ if TYPE_CHECKING:
 PACKAGE_SCHEME = "package://"
 PYBULLET_MAX_JOINTS = 127  # state queries fail at >= 128 links (bullet3 MAX_DEGREE_OF_FREEDOM, SharedMemoryCommands.h)
 HOME_TOLERANCE = 1e-9
+AUTO = "auto"  # a mount that rests the robot on the ground (robot/ground.py)
+Mount = tuple[list[float], list[float]]  # xyz [m], rpy [deg] of the root link on the virtual base
 
 
 @dataclass(frozen=True)
@@ -50,7 +54,7 @@ class UrdfPlan:
     active: tuple[str, ...] | None = None  # fnmatch patterns of the joints the MPCs use; None: every movable one
     home: dict[str, float] = field(default_factory=dict)  # [deg] revolute and continuous, [m] prismatic
     tools: dict[str, ToolSpec] = field(default_factory=dict)
-    mount: tuple[list[float], list[float]] | None = None  # xyz [m], rpy [deg] of the root on the base
+    mount: Mount | str | None = None  # the root on the base; AUTO: resting on the ground; None: at the base
     keep: tuple[str, ...] = ()  # links that must stay links (end effectors, pushed links)
 
 
@@ -65,6 +69,8 @@ class PreparedUrdf:
     dropped: dict[str, int]  # top-level element tag -> how many were dropped
     massless: tuple[str, ...]  # links given a small inertia
     merged: tuple[str, ...]  # links merged into their parents
+    mount: Mount | None = None  # the root on the virtual base (AUTO resolved); None: at the base's origin
+    rested: Lowest | None = None  # the lowest point AUTO lifted onto the ground (None: it did not lift)
 
     def notes(self) -> list[str]:
         """One line per kind of change, for run.log and `harmony robots show`."""
@@ -75,7 +81,13 @@ class PreparedUrdf:
             "links given a small inertia": list(self.massless),
             "fixed links merged into their parents": list(self.merged),
         }
-        return [f"urdf: {kind}: {len(items)}: {', '.join(items)}" for kind, items in kinds.items() if items]
+        notes = [f"urdf: {kind}: {len(items)}: {', '.join(items)}" for kind, items in kinds.items() if items]
+        if self.rested is not None and self.mount is not None:
+            notes.append(
+                f"urdf: mount: auto: the root raised {self.mount[0][2]:.4f} m, to rest link {self.rested.link}'s "
+                "lowest collision point at home on the ground"
+            )
+        return notes
 
 
 def prepare_urdf(urdf: Path, plan: UrdfPlan, cache_dir: Path) -> PreparedUrdf:
@@ -99,17 +111,29 @@ def prepare_urdf(urdf: Path, plan: UrdfPlan, cache_dir: Path) -> PreparedUrdf:
     continuous = continuous_to_revolute(robot)
     for hand, tool in plan.tools.items():
         add_tool(robot, hand, tool)
-    added_base = ensure_base_joints(robot, urdf, plan.base_joints, plan.mount)
+    meshes = _resolve_mesh_filenames(robot, urdf, list(plan.package_paths))
+    mount, rested = _mount(robot, plan, home)
+    added_base = ensure_base_joints(robot, urdf, plan.base_joints, mount)
     massless = add_missing_inertials(robot, root_link_of(robot, urdf))
     merged = []
     if len(robot.findall("joint")) > PYBULLET_MAX_JOINTS:
         merged = merge_fixed_links(robot, _fixed_chains(robot, plan.keep))
-    meshes = _resolve_mesh_filenames(robot, urdf, list(plan.package_paths))
     path = original
     if dropped or locked or continuous or plan.tools or added_base or massless or merged or meshes:
         ET.indent(tree, space="  ")
         path = _write_cached(f'<?xml version="1.0"?>\n{ET.tostring(robot, encoding="unicode")}\n', urdf.stem, cache_dir)
-    return PreparedUrdf(path, home, tuple(continuous), locked, dropped, tuple(massless), tuple(merged))
+    return PreparedUrdf(path, home, tuple(continuous), locked, dropped, tuple(massless), tuple(merged), mount, rested)
+
+
+def _mount(robot: ET.Element, plan: UrdfPlan, home: dict[str, float]) -> tuple[Mount | None, Lowest | None]:
+    """The root's pose on the virtual base: the plan's, or for AUTO the one resting the robot on the ground (none
+    when the URDF has base joints of its own: they place the root); and the lowest point AUTO lifted."""
+    if not isinstance(plan.mount, str):  # the only string is AUTO
+        return plan.mount, None
+    if {joint.get("name") for joint in robot.findall("joint")} & set(plan.base_joints):
+        return None, None
+    mount, lowest = resting_mount(robot, home)
+    return mount, lowest if mount is not None else None
 
 
 def home_values(
