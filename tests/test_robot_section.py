@@ -117,6 +117,7 @@ def test_revolute_home_is_in_degrees(tmp_path):
         ),
         (", home: {base_yaw: 10}", ["robot.home.base_yaw: a base joint", "robot.base_pose"]),
         (", tools: {left: {parent: l_hnd, xyz: [0, 0, 0]}}", ["robot.tools.left.parent: 'l_hnd'", "l_hand"]),
+        (", mount: atuo", ["robot.mount: 'atuo': not a mount", "auto"]),
     ],
 )
 def test_what_a_run_would_reject_about_the_robot_validate_rejects_in_one_line(tmp_path, fields, pieces):

@@ -241,13 +241,13 @@ def test_a_robot_starting_inside_an_obstacle_is_refused_before_the_loop(tmp_path
     assert "decision_variables" not in summary  # refused before the MPCs were built
 
 
-def _g1(tmp_path: Path, mount_z: float | None) -> Path:
+def _g1(tmp_path: Path, mount: str | None) -> Path:
     """The smoke S on Unitree's G1 humanoid as example-robot-data ships it (floating base, legs), its pelvis on the
-    virtual base at `mount_z` (None: at the ground, as a new user's first try puts it)."""
+    virtual base as `robot.mount` (YAML) says (None: not given, as a new user's first try leaves it)."""
     share = resolve_path("example-robot-data:", "g1")
     urdf = f"{share}/example-robot-data/robots/g1_description/urdf/g1_29dof_rev_1_0.urdf"
     pad = "xyz: [0, 0, 0], rpy_deg: [0, 0, 0], pad: [0.05, 0.05, 0.01]"
-    mount = "" if mount_z is None else f"  mount: {{xyz: [0, 0, {mount_z}], rpy_deg: [0, 0, 0]}}\n"
+    mount = "" if mount is None else f"  mount: {mount}\n"
     robot = (
         f"robot:\n  urdf: {urdf}\n  package_paths: [{share}]\n{mount}  tools:\n"
         f"    left: {{parent: left_rubber_hand, {pad}}}\n    right: {{parent: right_rubber_hand, {pad}}}\n"
@@ -257,14 +257,21 @@ def _g1(tmp_path: Path, mount_z: float | None) -> Path:
     return scenario
 
 
-def test_a_package_humanoid_with_its_feet_in_the_ground_is_refused_and_runs_once_mounted_clear(tmp_path):
-    code, lines, summary, steps = _run(tmp_path / "ground", scenario=_g1(tmp_path, None))
+def test_a_package_humanoid_placed_with_its_feet_in_the_ground_is_refused_and_runs_once_mounted_clear(tmp_path):
+    code, lines, summary, steps = _run(tmp_path / "ground", scenario=_g1(tmp_path, "null"))  # where its URDF puts it
     assert code == 1 and len(lines) == 1, lines  # before: thrown ~1 m by the ground and reported "completed"
     assert "link right_ankle_roll_link is 79.2 cm inside the ground" in lines[0], lines
     assert (summary["failure"], len(steps)) == ("penetration", 0)
-    code, lines, summary, steps = _run(tmp_path / "mounted", scenario=_g1(tmp_path, 0.80))  # pelvis at its height
+    mounted = _g1(tmp_path, "{xyz: [0, 0, 0.80], rpy_deg: [0, 0, 0]}")  # its pelvis at its height
+    code, lines, summary, steps = _run(tmp_path / "mounted", scenario=mounted)
     assert code == 0 and summary["status"] == "completed" and len(steps) == 50, lines
     assert summary["tracking_error"]["max_m"] < 0.02
+
+
+def test_a_package_humanoid_stands_on_its_feet_without_a_mount(tmp_path):
+    code, lines, summary, steps = _run(tmp_path / "auto", scenario=_g1(tmp_path, None))
+    assert code == 0 and summary["status"] == "completed" and len(steps) == 50, lines
+    assert "the root raised 0.79" in (tmp_path / "auto" / "run.log").read_text()
 
 
 def test_a_hand_far_from_its_reference_is_divergence():

@@ -12,7 +12,8 @@ from pathlib import Path
 
 import yaml
 
-from harmony_cli.scenario import Scenario, scenario_yaml
+from harmony_cli.robot.prepare import AUTO
+from harmony_cli.scenario import Scenario, robot_of, scenario_yaml
 
 PACKAGES = ("harmony-cli", "casadi", "pyoptas", "pin", "pybullet", "numpy", "pydantic", "pandas")
 
@@ -22,11 +23,15 @@ def default_run_dir(name: str, root: Path = Path("results/runs")) -> Path:
 
 
 def write_inputs(out: Path, path: Path, overrides: list[str], scenario: Scenario) -> None:
-    """scenario.resolved.yaml (the URDF and mesh paths made absolute: re-runnable from `out`) and overrides.yaml."""
+    """scenario.resolved.yaml (the URDF and mesh paths made absolute and `robot.mount: auto` the mount it chose:
+    re-runnable from `out`, the same robot) and overrides.yaml."""
     out.mkdir(parents=True, exist_ok=True)
     resolved = yaml.safe_load(scenario_yaml(scenario))
     resolved["robot"]["urdf"] = str((path.parent / scenario.robot.urdf).resolve())
     resolved["robot"]["package_paths"] = [str((path.parent / p).resolve()) for p in scenario.robot.package_paths]
+    if scenario.robot.mount == AUTO:  # the robot is built once per process: the scenario's validation built it
+        mount = robot_of(scenario, path.parent).mount
+        resolved["robot"]["mount"] = None if mount is None else {"xyz": mount[0], "rpy_deg": mount[1]}
     (out / "scenario.resolved.yaml").write_text(yaml.safe_dump(resolved, sort_keys=False))
     (out / "overrides.yaml").write_text(yaml.safe_dump({"scenario": str(path), "overrides": list(overrides)}))
 

@@ -17,7 +17,7 @@ from harmony_cli.capture import captured_output
 from harmony_cli.names import closest
 from harmony_cli.robot.arm_points import ArmChain, arm_chains
 from harmony_cli.robot.gravity import gravity_torques
-from harmony_cli.robot.prepare import UrdfPlan, prepare_urdf
+from harmony_cli.robot.prepare import Mount, UrdfPlan, prepare_urdf
 from harmony_cli.robot.tools import tool_link
 from harmony_cli.robot.urdf import joint_types, wrist_sensor_joints
 from harmony_cli.robot.urdf_form import refused_by
@@ -70,6 +70,7 @@ class Robot:
     effort: np.ndarray | None = None  # per joint, the URDF's effort limit
     actuators: str = "urdf"  # simulated motors: the URDF's efforts (urdf) or strong ones (ideal)
     arms: tuple[ArmChain, ...] = ()  # per hand, points along its arm kept off table tops and obstacles (none: not)
+    mount: Mount | None = None  # the root link's pose on the virtual base (`mount: auto` resolved); None: at it
 
     @property
     def overloaded(self) -> tuple[str, ...]:
@@ -104,13 +105,14 @@ class Robot:
 
 def urdf_plan(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) -> UrdfPlan:
     """What a robot section asks of its URDF (paths relative to the scenario file); `keep`: links that must stay."""
+    mount = spec.mount
     return UrdfPlan(
         base_joints=tuple(spec.base_joints),
         package_paths=tuple((scenario_dir / p).resolve() for p in spec.package_paths),
         active=None if spec.active_joints is None else tuple(spec.active_joints),
         home=dict(spec.home),
         tools=dict(spec.tools),
-        mount=None if spec.mount is None else (list(spec.mount.xyz), list(spec.mount.rpy_deg)),
+        mount=mount if mount is None or isinstance(mount, str) else (list(mount.xyz), list(mount.rpy_deg)),
         keep=tuple(spec.end_effectors.values()) + keep,
         hands=dict(spec.end_effectors),
     )
@@ -162,4 +164,5 @@ def load_robot(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) 
         arms=()
         if spec.arm_radius is None
         else arm_chains(prepared.path, tuple(end_effectors.values()), spec.arm_radius),
+        mount=prepared.mount,
     )

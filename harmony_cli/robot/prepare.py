@@ -3,9 +3,10 @@
 In order: elements and joint types the parsers reject or misread are made explicit (robot/sanitize.py) and what
 remains is checked for their form (robot/urdf_form.py); the joints a scenario does not use are locked (fixed at
 their home value; mimic joints follow their master); tool frames are added, declared ones and one at each hand link
-no fixed joint holds (robot/tools.py); the virtual planar base goes above the root (robot/placement.py); links
-without inertia get a small one; fixed links merge into their parents when PyBullet could not take them all
-(robot/reduce.py); mesh filenames become absolute paths, so the copy can live in the cache.
+no fixed joint holds (robot/tools.py); mesh filenames become absolute paths, so the copy can live in the cache (and
+`mount: auto` can load the meshes, robot/ground.py); the virtual planar base goes above the root, the root mounted
+on it (robot/placement.py); links without inertia get a small one; fixed links merge into their parents when
+PyBullet could not take them all (robot/reduce.py).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import numpy as np
 
 from harmony_cli.names import closest
 from harmony_cli.robot.origin import pose_matrix
+from harmony_cli.robot.ground import Lowest, resting_mount
 from harmony_cli.robot.placement import ensure_base_joints, root_link_of
 from harmony_cli.robot.reduce import lock_joints, merge_fixed_links
 from harmony_cli.robot.sanitize import (
@@ -45,6 +47,8 @@ if TYPE_CHECKING:
 PACKAGE_SCHEME = "package://"
 PYBULLET_MAX_JOINTS = 127  # state queries fail at >= 128 links (bullet3 MAX_DEGREE_OF_FREEDOM, SharedMemoryCommands.h)
 HOME_TOLERANCE = 1e-9
+AUTO = "auto"  # a mount that rests the robot on the ground (robot/ground.py)
+Mount = tuple[list[float], list[float]]  # xyz [m], rpy [deg] of the root link on the virtual base
 
 
 @dataclass(frozen=True)
@@ -56,7 +60,7 @@ class UrdfPlan:
     active: tuple[str, ...] | None = None  # fnmatch patterns of the joints the MPCs use; None: every movable one
     home: dict[str, float] = field(default_factory=dict)  # [deg] revolute and continuous, [m] prismatic
     tools: dict[str, ToolSpec] = field(default_factory=dict)
-    mount: tuple[list[float], list[float]] | None = None  # xyz [m], rpy [deg] of the root on the base
+    mount: Mount | str | None = None  # the root on the base; AUTO: resting on the ground; None: at the base
     keep: tuple[str, ...] = ()  # links that must stay links (end effectors, pushed links)
     hands: dict[str, str] = field(default_factory=dict)  # hand -> end-effector link (a tool frame at it: see tools.py)
 
@@ -73,6 +77,8 @@ class PreparedUrdf:
     massless: tuple[str, ...]  # links given a small inertia
     merged: tuple[str, ...]  # links merged into their parents
     hand_tools: tuple[str, ...] = ()  # hands given a tool frame at their link (no fixed joint holds it)
+    mount: Mount | None = None  # the root on the virtual base (AUTO resolved); None: at the base's origin
+    rested: Lowest | None = None  # the lowest point AUTO lifted onto the ground (None: it did not lift)
 
     def notes(self) -> list[str]:
         """One line per kind of change, for run.log and `harmony robots show`."""
@@ -84,7 +90,13 @@ class PreparedUrdf:
             "fixed links merged into their parents": list(self.merged),
             "tool frames at the hand link (a movable joint holds it)": list(self.hand_tools),
         }
-        return [f"urdf: {kind}: {len(items)}: {', '.join(items)}" for kind, items in kinds.items() if items]
+        notes = [f"urdf: {kind}: {len(items)}: {', '.join(items)}" for kind, items in kinds.items() if items]
+        if self.rested is not None and self.mount is not None:
+            notes.append(
+                f"urdf: mount: auto: the root raised {self.mount[0][2]:.4f} m, to rest link {self.rested.link}'s "
+                "lowest collision point at home on the ground"
+            )
+        return notes
 
 
 def prepare_urdf(urdf: Path, plan: UrdfPlan, cache_dir: Path) -> PreparedUrdf:
@@ -109,19 +121,20 @@ def prepare_urdf(urdf: Path, plan: UrdfPlan, cache_dir: Path) -> PreparedUrdf:
     hand_tools = bare_hands(robot, {hand: link for hand, link in plan.hands.items() if hand not in plan.tools})
     for hand, link in hand_tools.items():
         add_tool(robot, hand, link, np.eye(4), PAD)
-    added_base = ensure_base_joints(robot, urdf, plan.base_joints, plan.mount)
+    meshes = _resolve_mesh_filenames(robot, urdf, list(plan.package_paths))
+    mount, rested = _mount(robot, plan, home)
+    added_base = ensure_base_joints(robot, urdf, plan.base_joints, mount)
     massless = add_missing_inertials(robot, root_link_of(robot, urdf))
     merged = []
     if len(robot.findall("joint")) > PYBULLET_MAX_JOINTS:
         merged = merge_fixed_links(robot, _fixed_chains(robot, plan.keep + tuple(map(tool_link, hand_tools))))
-    meshes = _resolve_mesh_filenames(robot, urdf, list(plan.package_paths))
     path = original
     changed = dropped or named or locked or continuous or plan.tools or hand_tools or added_base or massless or merged
     if changed or meshes:
         ET.indent(robot, space="  ")
         path = _write_cached(f'<?xml version="1.0"?>\n{ET.tostring(robot, encoding="unicode")}\n', urdf.stem, cache_dir)
     return PreparedUrdf(
-        path, home, tuple(continuous), locked, dropped, tuple(massless), tuple(merged), tuple(hand_tools)
+        path, home, tuple(continuous), locked, dropped, tuple(massless), tuple(merged), tuple(hand_tools), mount, rested
     )
 
 
@@ -137,6 +150,17 @@ def _model(urdf: Path) -> tuple[ET.Element, dict[str, int], bool]:
     except ValueError as err:
         raise ValueError(f"robot.urdf: {urdf.name}: {err}") from None
     return robot, dropped, named
+
+
+def _mount(robot: ET.Element, plan: UrdfPlan, home: dict[str, float]) -> tuple[Mount | None, Lowest | None]:
+    """The root's pose on the virtual base: the plan's, or for AUTO the one resting the robot on the ground (none
+    when the URDF has base joints of its own: they place the root); and the lowest point AUTO lifted."""
+    if not isinstance(plan.mount, str):  # the only string is AUTO
+        return plan.mount, None
+    if {joint.get("name") for joint in robot.findall("joint")} & set(plan.base_joints):
+        return None, None
+    mount, lowest = resting_mount(robot, home)
+    return mount, lowest if mount is not None else None
 
 
 def home_values(

@@ -78,8 +78,13 @@ class RobotSpec(Strict):
         description="joint -> home value, degrees for revolute and continuous joints, metres for prismatic; others 0",
     )
     base_pose: Vector3 = Field((0.0, 0.0, 0.0), description="the base's start in the world: x [m], y [m], yaw [deg]")
-    mount: MountSpec | None = Field(
-        None, description="pose of the URDF's root link on the virtual base harmony adds (e.g. a mounting height)"
+    mount: MountSpec | Literal["auto"] | None = Field(
+        "auto",
+        description="pose of the URDF's root link on the virtual base harmony adds (e.g. a mounting height); "
+        "auto: where the URDF places it, unless that puts part of the robot below the floor (a root at the pelvis "
+        "or a pedestal's top): then raised until the lowest point of its collision model at home rests on the "
+        "ground (run.log says by how much; the run's scenario.resolved.yaml holds the mount used); null: where the "
+        "URDF places it",
     )
     footprint: list[tuple[float, float, float]] = Field(
         [],
@@ -129,6 +134,14 @@ class RobotSpec(Strict):
             keep = f"; or set preset ({', '.join(available_presets())}) to take its fields" if not self.preset else ""
             raise ValueError(f"end_effectors: {sorted(frames)}: a dual-arm robot needs two hands (or tools){keep}")
         return self
+
+    @field_validator("mount", mode="before")
+    @classmethod
+    def _mount_word(cls, value: Any) -> Any:
+        """A mount named by a word is auto (else a misspelt word is reported as a pose that is not a mapping)."""
+        if isinstance(value, str) and value != "auto":
+            raise ValueError("not a mount; give auto, null or {xyz: [x, y, z], rpy_deg: [roll, pitch, yaw]}")
+        return value
 
     @field_validator("trunk")
     @classmethod
