@@ -93,10 +93,14 @@ def run(
     except RunInterrupted as exc:  # the run wrote its results; say where they are
         say("interrupted:", "yellow", f"{exc.signal_name}; the steps so far, summary and plots are in {exc.run_dir}")
         raise typer.Exit(exc.exit_code) from None
+    from harmony_cli.experiment.results import succeeded
     from harmony_cli.report.text import run_lines  # pandas: after the run, not before its first step
 
-    for line in run_lines(run_dir, json.loads((run_dir / "summary.json").read_text())):
+    summary = json.loads((run_dir / "summary.json").read_text())
+    for line in run_lines(run_dir, summary):
         typer.echo(line)
+    if not succeeded(summary):  # it ran, but what it was asked (the task, the reference) it did not do
+        raise typer.Exit(1)
 
 
 @app.command()

@@ -1,3 +1,4 @@
+import json
 from pathlib import Path
 
 import numpy as np
@@ -31,3 +32,14 @@ def assert_rejected(path: Path, pieces: list[str]) -> None:
     assert "\n" not in message and message.startswith(str(path)), message
     for piece in pieces:
         assert piece in message, message
+
+
+def assert_exit_follows_outcome(result, run_dir: Path) -> dict:
+    """`harmony run`'s exit code says what its summary.json does: 0 for a run that did what it was asked (its task,
+    or its reference within tolerance), 1 for one that completed without doing it. Returns the summary."""
+    from harmony_cli.experiment.results import succeeded
+
+    summary = json.loads((run_dir / "summary.json").read_text())
+    assert summary["status"] == "completed", result.output
+    assert result.exit_code == (0 if succeeded(summary) else 1), result.output
+    return summary

@@ -4,13 +4,11 @@ loop whose elbows touch a table without the rows and not with them."""
 
 from __future__ import annotations
 
-import json
-
 import casadi as cs
 import numpy as np
 import pybullet
 import pytest
-from conftest import ROOT, TABLE1
+from conftest import ROOT, TABLE1, assert_exit_follows_outcome
 from pybullet_utils.bullet_client import BulletClient
 from typer.testing import CliRunner
 
@@ -142,8 +140,7 @@ LOW = [f"task.phases.approach.hands.{hand}.offset=[0.0, {y}, -0.02]" for hand, y
 def _task(out, overrides: list[str]) -> dict:
     sets = [arg for o in ["sim.duration=8.0", *LOW, *overrides] for arg in ("--set", o)]
     result = CliRunner().invoke(app, ["run", str(BOX_LIFT), "--out", str(out), "--quiet", *sets])
-    assert result.exit_code == 0, result.output
-    return json.loads((out / "summary.json").read_text())["task"]
+    return assert_exit_follows_outcome(result, out)["task"]
 
 
 def test_hands_sent_low_over_a_table_rest_the_elbows_on_it_without_the_arm_rows_and_not_with_them(tmp_path):

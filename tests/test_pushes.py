@@ -234,7 +234,7 @@ def test_a_closed_loop_run_with_a_push_logs_it_measures_it_against_its_push_free
             "sim.duration=3.0",
         ],
     )
-    assert result.exit_code == 0, result.output
+    assert result.exit_code == 1, result.output  # 3 s of the task: it fails (phases never started), the run completes
     assert sum(line.startswith("push left ") for line in result.output.splitlines()) == 1  # a line per push
     steps = pd.read_csv(out / "steps.csv")
     inside = (steps["t"] >= 1.0 - 1e-9) & (steps["t"] < 1.4 - 1e-9)

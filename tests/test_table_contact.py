@@ -2,11 +2,9 @@
 points, sim/touches.py); the same scene with the hands aimed where they should be touches nothing. The smoke
 box lift's first two phases (raise 3 s, approach 4 s), so each run takes seconds."""
 
-import json
-
 import pandas as pd
 import pytest
-from conftest import ROOT
+from conftest import ROOT, assert_exit_follows_outcome
 from typer.testing import CliRunner
 
 from harmony_cli.cli import app
@@ -23,8 +21,7 @@ INTO_TABLE = [
 def _run(out, overrides: list[str]) -> dict:
     sets = [arg for o in overrides for arg in ("--set", o)]
     result = runner.invoke(app, ["run", str(BOX_LIFT), "--out", str(out), "--quiet", *SHORT, *sets])
-    assert result.exit_code == 0, result.output
-    return json.loads((out / "summary.json").read_text())["task"]
+    return assert_exit_follows_outcome(result, out)["task"]
 
 
 @pytest.fixture(scope="module")

@@ -7,7 +7,7 @@ import imageio.v2 as imageio
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import ROOT
+from conftest import ROOT, assert_exit_follows_outcome
 from typer.testing import CliRunner
 
 from harmony_cli.cli import app
@@ -22,7 +22,7 @@ PAPER = ROOT / "scenarios" / "paper"
 def twin_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("twin") / "run"
     result = runner.invoke(app, ["run", str(TWIN), "--out", str(out), "--quiet"])
-    assert result.exit_code == 0, result.output
+    assert_exit_follows_outcome(result, out)
     return out
 
 
@@ -42,7 +42,7 @@ def test_a_robot_other_than_eva_runs_the_two_stage_loop_and_turns_to_its_goal(tw
 def lift_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("lift") / "run"
     result = runner.invoke(app, ["run", str(BOX), "--out", str(out), "--quiet"])
-    assert result.exit_code == 0, result.output
+    assert_exit_follows_outcome(result, out)
     return out
 
 
@@ -97,7 +97,7 @@ def test_video_is_written_headless_with_one_frame_per_tenth_of_a_second(tmp_path
             str(video),
         ],
     )
-    assert result.exit_code == 0, result.output
+    assert_exit_follows_outcome(result, tmp_path / "run")
     frames = imageio.mimread(video)
     assert len(frames) == 10 and frames[0].shape[:2] == (360, 480)
     assert np.std(frames[-1]) > 0

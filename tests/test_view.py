@@ -9,7 +9,7 @@ import time
 import numpy as np
 import pytest
 from browser import page, project, require_chromium, shot
-from conftest import SMOKE
+from conftest import SMOKE, assert_exit_follows_outcome
 from typer.testing import CliRunner
 
 from harmony_cli.cli import app
@@ -24,7 +24,7 @@ BASE_HEIGHT = 0.3  # [m] the EVA base box's centre above the floor
 def fast_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("view") / "run"
     result = runner.invoke(app, ["run", str(SMOKE), "--out", str(out), "--quiet", *FAST])
-    assert result.exit_code == 0, result.output
+    assert_exit_follows_outcome(result, out)
     return out
 
 

@@ -96,7 +96,11 @@ def finish_run(
 
 
 def succeeded(summary: dict) -> bool:
-    """A run that completed, with its task's success (a hand trajectory: no failed solve)."""
+    """A run that completed, with its task's success (a hand trajectory: no failed solve and the hands within the
+    reference's tolerance)."""
     task = summary.get("task")
-    ok = task.get("success") if task is not None else summary.get("failed_solves") == 0
-    return summary.get("status") == "completed" and bool(ok)
+    if task is not None:
+        ok = bool(task.get("success"))
+    else:
+        ok = summary.get("failed_solves") == 0 and summary.get("tracking", {}).get("verdict", "ok") == "ok"
+    return summary.get("status") == "completed" and ok

@@ -71,7 +71,8 @@ def _run_pool(jobs_list: list, jobs: int, bar: Progress, task) -> None:
 
 
 def failed_runs(dirs: list[Path]) -> list[str]:
-    """'label (status: reason)' for every grid run that did not complete."""
+    """'label (status: reason)' for every grid run that did not complete or whose hands left the reference's
+    tolerance (report/tracking.py)."""
     failed = []
     for d in dirs:
         try:
@@ -81,4 +82,6 @@ def failed_runs(dirs: list[Path]) -> list[str]:
         if summary.get("status") != "completed":
             why = summary.get("reason") or summary.get("error") or ""  # interrupted runs give a reason only
             failed.append(f"{d.name} ({summary.get('status')}: {why})")
+        elif summary.get("tracking", {}).get("verdict") == "failed":
+            failed.append(f"{d.name} (tracking failed: {summary['tracking']['reason']})")
     return failed

@@ -6,6 +6,7 @@ from __future__ import annotations
 import pandas as pd
 
 from harmony_cli.report.metrics import force_outcome, push_outcome, summarise, task_outcome
+from harmony_cli.report.tracking import tracking_verdict
 from harmony_cli.scenario import Scenario
 
 
@@ -17,6 +18,9 @@ def summarise_run(
     summary = summarise(steps, hands)
     if scenario.task is not None:
         summary["task"] = task_outcome(steps, scenario, hands)
+    if scenario.reference is not None and len(steps):
+        verdict = tracking_verdict(steps, hands, scenario.reference.tolerance, scenario.sim.control_dt)
+        summary["tracking"] = verdict.as_dict()
     outcome = summary.get("task", summary)
     if (force := force_outcome(steps, hands)) is not None:
         outcome["force"] = force

@@ -36,6 +36,8 @@ def run_lines(run_dir: Path, summary: dict) -> list[str]:
         for name, c in task.get("min_clearance_moving_m", {}).items():
             clearances = ", ".join(f"{who} {v:.3f} m" for who, v in c.items())
             lines.append(f"moving obstacle {name}: min clearance {clearances}")
+    if summary.get("tracking", {}).get("verdict") == "failed":
+        lines.append(f"tracking failed: {summary['tracking']['reason']}")
     lines += disturbance_lines(summary.get("task", summary))
     if "video" in summary:
         lines.append(f"video: {summary['video']}")

@@ -24,8 +24,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from harmony_cli.names import closest
-from harmony_cli.robot.origin import pose_matrix
 from harmony_cli.robot.ground import Lowest, resting_mount
+from harmony_cli.robot.origin import pose_matrix
 from harmony_cli.robot.placement import ensure_base_joints, root_link_of
 from harmony_cli.robot.reduce import lock_joints, merge_fixed_links
 from harmony_cli.robot.sanitize import (

@@ -9,10 +9,19 @@ from pydantic import Field, PositiveFloat, model_validator
 from harmony_cli.scenario.base import Strict, Vector3, unique
 
 
+class TrackingTolerance(Strict):
+    """How far the hands may be from the reference before the run's tracking fails (summary.json `tracking`)."""
+
+    position: PositiveFloat = Field(0.05, description="[m] either hand's distance from its reference")
+    rotation_deg: PositiveFloat = Field(15.0, description="[deg] either hand's rotation from its reference")
+    duration: PositiveFloat = Field(0.5, description="[s] the longest the hands may stay outside it at a time")
+
+
 class SCurveReference(Strict):
     """Both hands sweep along a lane-change 'S' while their yaw follows the path heading."""
 
     type: Literal["s_curve"]
+    tolerance: TrackingTolerance = TrackingTolerance()
     duration: PositiveFloat = Field(24.0, description="time to traverse the S [s] (quintic time scaling)")
     length: float = Field(5.0, description="forward travel of the hands' midpoint [m]")
     lateral: float = Field(2.0, description="sideways shift of the midpoint over the S [m]")
@@ -23,6 +32,7 @@ class HoldReference(Strict):
     """The hands hold their home poses (smoke tests)."""
 
     type: Literal["hold"]
+    tolerance: TrackingTolerance = TrackingTolerance()
 
 
 Reference = Annotated[SCurveReference | HoldReference, Field(discriminator="type")]

@@ -1,0 +1,73 @@
+"""A hand-trajectory run's verdict: the hands within the reference's tolerance, or a failed run."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from conftest import SMOKE
+from typer.testing import CliRunner
+
+from harmony_cli.cli import app
+from harmony_cli.report.tracking import Verdict, tracking_verdict
+from harmony_cli.scenario.task import TrackingTolerance
+
+DT = 0.02
+TOLERANCE = TrackingTolerance()  # 5 cm, 15 deg, 0.5 s
+
+
+def _steps(position: np.ndarray, rotation: np.ndarray | None = None) -> pd.DataFrame:
+    """Steps whose left hand has these errors [m] (and [deg]) and whose right hand tracks exactly."""
+    rotation = np.zeros_like(position) if rotation is None else rotation
+    zero = np.zeros_like(position)
+    return pd.DataFrame(
+        {
+            "t": DT * np.arange(len(position)),
+            "left_error_m": position,
+            "right_error_m": zero,
+            "left_rot_error_deg": rotation,
+            "right_rot_error_deg": zero,
+        }
+    )
+
+
+def _off_for(steps: int, size: float = 0.2, total: int = 200, start: int = 40) -> np.ndarray:
+    error = np.full(total, 0.01)
+    error[start : start + steps] = size
+    return error
+
+
+@pytest.mark.parametrize(
+    "steps, verdict", [(25, Verdict.OK), (26, Verdict.FAILED)], ids=["exactly-the-duration", "one-step-longer"]
+)
+def test_the_hands_may_leave_the_tolerance_for_its_duration_and_no_longer(steps, verdict):
+    tracking = tracking_verdict(_steps(_off_for(steps)), ["left", "right"], TOLERANCE, DT)
+    assert tracking.verdict is verdict
+    assert tracking.longest_outside_s == pytest.approx(steps * DT)
+    assert tracking.outside_from_s == pytest.approx(40 * DT)
+
+
+def test_short_excursions_apart_do_not_add_up_to_a_failure():
+    error = np.full(300, 0.01)
+    for start in (20, 80, 140, 200):
+        error[start : start + 20] = 0.3  # 0.4 s each, 1.6 s in all
+    assert tracking_verdict(_steps(error), ["left", "right"], TOLERANCE, DT).verdict is Verdict.OK
+
+
+def test_a_hand_turned_beyond_the_rotation_tolerance_fails_with_its_position_on_the_reference():
+    rotation = _off_for(60, size=40.0)
+    tracking = tracking_verdict(_steps(np.zeros(200), rotation), ["left", "right"], TOLERANCE, DT)
+    assert tracking.verdict is Verdict.FAILED and tracking.longest_outside_s == pytest.approx(60 * DT)
+
+
+def test_a_reference_the_robot_cannot_follow_completes_with_tracking_failed_and_exit_code_1(tmp_path):
+    out = tmp_path / "run"
+    # 1.5 m in 1 s, up to 2.8 m/s: the hands fall tens of centimetres behind, for most of a second
+    runaway = ["reference.length=1.5", "reference.duration=1.0", "sim.duration=1.5"]
+    sets = [arg for o in runaway for arg in ("--set", o)]
+    result = CliRunner().invoke(app, ["run", str(SMOKE), "--out", str(out), "--quiet", *sets])
+    assert result.exit_code == 1, result.output
+    assert "tracking failed: the hands were off the reference" in result.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "completed" and summary["tracking"]["verdict"] == "failed"
+    assert summary["tracking"]["longest_outside_s"] > TOLERANCE.duration
