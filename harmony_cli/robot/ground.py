@@ -26,6 +26,10 @@ from harmony_cli.capture import captured_output
 RESTING_M = 1e-3
 
 
+class UnreadableUrdf(ValueError):
+    """Pinocchio's URDF parser (urdfdom) refuses the file itself; the message is the reason it printed."""
+
+
 @dataclass(frozen=True)
 class Lowest:
     """The collision model's lowest point at home, with its root link at the origin."""
@@ -46,7 +50,8 @@ def resting_mount(robot: ET.Element, home: dict[str, float]) -> tuple[tuple[list
 
 def lowest_point(robot: ET.Element, home: dict[str, float]) -> Lowest:
     """The lowest point of the collision model with the joints `home` names at those values and every other at 0.
-    ValueError when its collision model cannot be read (a mesh Pinocchio cannot load)."""
+    UnreadableUrdf when the parser refuses the file; ValueError when its collision model cannot be read (a mesh
+    Pinocchio cannot load)."""
     text = ET.tostring(robot, encoding="unicode")
     key = text.encode() + repr(sorted(home.items())).encode()
     value = cached_json("ground", key, lambda: _pinocchio_lowest(text, home))
@@ -56,9 +61,16 @@ def lowest_point(robot: ET.Element, home: dict[str, float]) -> Lowest:
 def _pinocchio_lowest(text: str, home: dict[str, float]) -> dict:
     import pinocchio as pin  # only when the cache does not have the answer
 
+    with captured_output() as printed:
+        try:
+            model = pin.buildModelFromXML(text)
+        except (ValueError, RuntimeError):
+            model = None
+    if model is None:  # urdfdom prints why it refuses a file; its exception says only that it does
+        reasons = [line.removeprefix("Error:").strip() for line in printed if line.startswith("Error:")]
+        raise UnreadableUrdf(f"Pinocchio (urdfdom) cannot read it: {reasons[0] if reasons else 'not a URDF model'}")
     try:
         with captured_output():
-            model = pin.buildModelFromXML(text)
             geometry = pin.buildGeomFromUrdfString(model, text, pin.COLLISION)
     except (ValueError, RuntimeError) as err:  # coal's messages open with where it raised them; why: 'message:'
         lines = [line.strip() for line in str(err).splitlines() if line.strip()] or [type(err).__name__]

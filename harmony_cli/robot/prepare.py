@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from harmony_cli.names import closest
-from harmony_cli.robot.ground import Lowest, resting_mount
+from harmony_cli.robot.ground import Lowest, UnreadableUrdf, resting_mount
 from harmony_cli.robot.origin import pose_matrix
 from harmony_cli.robot.placement import ensure_base_joints, root_link_of
 from harmony_cli.robot.reduce import lock_joints, merge_fixed_links
@@ -122,7 +122,10 @@ def prepare_urdf(urdf: Path, plan: UrdfPlan, cache_dir: Path) -> PreparedUrdf:
     for hand, link in hand_tools.items():
         add_tool(robot, hand, link, np.eye(4), PAD)
     meshes = _resolve_mesh_filenames(robot, urdf, list(plan.package_paths))
-    mount, rested = _mount(robot, plan, home)
+    try:
+        mount, rested = _mount(robot, plan, home)
+    except UnreadableUrdf as err:
+        raise ValueError(f"robot.urdf: {urdf.name}: {err}") from None
     added_base = ensure_base_joints(robot, urdf, plan.base_joints, mount)
     massless = add_missing_inertials(robot, root_link_of(robot, urdf))
     merged = []
