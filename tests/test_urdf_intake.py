@@ -178,17 +178,6 @@ def test_locked_joints_and_mimics_put_the_fingers_where_the_shipped_robot_has_th
             np.testing.assert_allclose(in_bullet, _pin_frame(shipped, data, link), atol=1e-7)
 
 
-def test_an_active_master_of_a_mimic_joint_is_refused_in_one_line(tmp_path):
-    urdf = synthetic_urdf(tmp_path / "robot.urdf")
-    with pytest.raises(ValueError) as info:
-        prepare_urdf(urdf, UrdfPlan(BASE), tmp_path / "cache")  # every movable joint active by default
-    message = str(info.value)
-    assert "\n" not in message and message.startswith("robot.active_joints: 'l_finger' is active")
-    assert "'l_finger_mirror' mimics it" in message
-    with pytest.raises(ValueError, match="robot.active_joints: 'l_finger_mirror' mimics 'l_finger'"):
-        prepare_urdf(urdf, UrdfPlan(BASE, active=(*ARMS, "l_finger_mirror")), tmp_path / "cache")
-
-
 def test_more_links_than_pybullet_takes_merge_keeping_mass_and_hand_frames(tmp_path, bullet, monkeypatch):
     """Merged against the same robot prepared unmerged (Pinocchio reads both): same mass, centre of mass and hand
     frames; only the merged one fits PyBullet."""

@@ -44,8 +44,8 @@ builds = 0  # structures built in this process (tests: a reused one is not built
 
 def structure_key(robot: Robot, scenario: Scenario) -> tuple:
     """Everything the whole-body MPC's structure is built from: the robot's kinematics (its URDF's content), joints,
-    limits and home (base joints excluded: robot.base_pose), the mpc section, chest and mirrored joints, the
-    admittance section when enabled, the obstacles', table legs' and tops' shapes and margins (the arms'
+    mimic couplings, limits and home (base joints excluded: robot.base_pose), the mpc section, chest and mirrored
+    joints, the admittance section when enabled, the obstacles', table legs' and tops' shapes and margins (the arms'
     radius among them), the footprint."""
     home = robot.home.copy()
     home[list(robot.base_joints)] = 0.0
@@ -58,6 +58,7 @@ def structure_key(robot: Robot, scenario: Scenario) -> tuple:
         robot.hand_names,
         robot.base_joints,
         robot.pinned_joints,
+        robot.couplings,
         *(a.tobytes() for a in (robot.lower, robot.upper, robot.velocity_limit, home)),
         scenario.mpc.model_dump_json(),
         tuple(spec.chest_joints),

@@ -14,6 +14,9 @@ import numpy as np
 from harmony_cli.maths import bezier
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from harmony_cli.robot.mimic import Coupling
     from harmony_cli.scenario.models import MpcSpec
 
 
@@ -38,6 +41,10 @@ class Transcription(Protocol):
 
     def linear_constraints(self, x, velocity_limit: np.ndarray) -> dict[str, tuple]:
         """Named rows (expr, lower, upper), affine in x."""
+
+    def coupling_rows(self, x, couplings: Sequence[Coupling]) -> dict[str, tuple]:
+        """Named equality rows (expr, offset, offset), affine in x, holding each coupling's follower at its leader's
+        value times the multiplier plus the offset along the whole trajectory, its velocity too (none: {})."""
 
     def bounds(
         self,
@@ -102,6 +109,16 @@ class BezierTranscription:
         v = np.tile(velocity_limit, self.n_ctrl - 1)
         return {"velocity_hodograph": (rows, -v, v)}
 
+    def coupling_rows(self, x, couplings: Sequence[Coupling]) -> dict[str, tuple]:
+        """On every control point: the curves' partition of unity makes q_f(t) = m q_l(t) + o (and q_f' = m q_l')
+        at every t."""
+        if not couplings:
+            return {}
+        Q = self.positions(x)
+        rows = cs.vertcat(*[cs.vec(Q[c.follower, :] - c.multiplier * Q[c.leader, :]) for c in couplings])
+        offsets = np.repeat([c.offset for c in couplings], self.n_ctrl)
+        return {"mimic_coupling": (rows, offsets, offsets)}
+
     def bounds(self, lower, upper, velocity_limit, q_now, pinned, q_pinned):
         lo, hi = np.tile(lower[:, None], self.n_ctrl), np.tile(upper[:, None], self.n_ctrl)
         lo[:, 0] = hi[:, 0] = q_now  # initial state from the measurement
@@ -165,6 +182,19 @@ class TraditionalTranscription:
         rows = cs.vec(q[:, 1:] - q[:, :-1] - step)
         zero = np.zeros(self.n_dof * (self.n_knots - 1))
         return {f"{self.integration}_integration": (rows, zero, zero)}
+
+    def coupling_rows(self, x, couplings: Sequence[Coupling]) -> dict[str, tuple]:
+        """The positions at every knot, with the integration rows the velocities at all knots but one, which gets a
+        row of its own: the last (Euler: no step uses its velocity) or the first (trapezoidal: the steps couple only
+        the sums of neighbouring velocities). No row follows from the others: the equality rows stay independent."""
+        if not couplings:
+            return {}
+        q, dq = self.split(x)
+        knot = self.n_knots - 1 if self.integration == "euler" else 0
+        rows = [q[c.follower, :].T - c.multiplier * q[c.leader, :].T for c in couplings]
+        rows += [dq[c.follower, knot] - c.multiplier * dq[c.leader, knot] for c in couplings]
+        offsets = np.r_[np.repeat([c.offset for c in couplings], self.n_knots), np.zeros(len(couplings))]
+        return {"mimic_coupling": (cs.vertcat(*rows), offsets, offsets)}
 
     def bounds(self, lower, upper, velocity_limit, q_now, pinned, q_pinned):
         K = self.n_knots

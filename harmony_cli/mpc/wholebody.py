@@ -114,7 +114,8 @@ class WholeBodyMPC:
             hand_ref, self.obstacle_poses, force_ref, self.force_seen, chest_ref, stance, task_weight
         )
         t, dt, robot = self.transcription, self.control_dt, self.robot
-        q_init = np.concatenate([q_now, np.zeros(t.n_dof - q_now.size)])  # the compliant offsets start at 0
+        # the compliant offsets start at 0; mimic joints from their leaders (the coupling rows hold the plan to it)
+        q_init = np.concatenate([robot.coupled(q_now), np.zeros(t.n_dof - q_now.size)])
         q_init[self.pinned] = robot.home[self.pinned]
         lbx, ubx = t.bounds(*self.limits, q_init, self.pinned, robot.home[self.pinned])
         x0 = self._constant(q_init) if self.x is None else t.shift(self.x, dt)

@@ -145,7 +145,6 @@ def build_problem(
     x = cs.vertcat(*[cs.vec(v) for v in parts])
     ref = cs.SX.sym("knot_params", layout.rows, K)
     knots = transcription.knots(x)
-
     soft = clearance == "soft" and bool(clearances)
     task_residual = task_residual_function(
         robot, weights, K, clearances, footprint, soft, layout.compliant, layout.n_chest
@@ -167,7 +166,8 @@ def build_problem(
     )
     p = cs.vec(ref)
     L, S, c = _affine_form(linear, x, p)
-    A, lb, ub = linear_rows(x, transcription.linear_constraints(x, joint_limits(robot, admittance)[2]))
+    rows = transcription.linear_constraints(x, joint_limits(robot, admittance)[2])
+    A, lb, ub = linear_rows(x, rows | transcription.coupling_rows(x, robot.couplings))
     return Problem(
         x=x,
         p=p,

@@ -73,6 +73,16 @@ def stance_pose(scenario: Scenario, robot: Robot, targets: np.ndarray, headings:
     return found[0] if found else None
 
 
+def _joint_vector(robot: Robot, home: np.ndarray, free: list[int], x: cs.SX, base: cs.SX) -> cs.SX:
+    """The home pose with the `free` joints at `x`, the base's at `base` and mimic joints on their leaders."""
+    q = cs.SX(home)
+    for k, i in enumerate(free):
+        q[i] = x[k]
+    for k, i in enumerate(robot.base_joints):
+        q[i] = base[k]
+    return robot.coupled(q)
+
+
 def stance_poses(
     scenario: Scenario,
     robot: Robot,
@@ -95,11 +105,7 @@ def stance_poses(
     variables, rows, cost = [], _trunk_rows(scenario, base), RELIEF_COST * cs.sum1(reliefs)
     for pair, heading in zip(targets, headings):
         x = cs.SX.sym("x", len(free))
-        q = cs.SX(home)
-        for k, i in enumerate(free):
-            q[i] = x[k]
-        for k, i in enumerate(robot.base_joints):
-            q[i] = base[k]
+        q = _joint_vector(robot, home, free, x, base)
         turn = rot_z(np.asarray(heading))
         for h, target in enumerate(pair):
             p, R = robot.hand_pose(h, q)
@@ -127,6 +133,7 @@ def stance_poses(
         joints = np.tile(home, (len(targets), 1))
         joints[:, free] = x[3 + n_obstacles :].reshape(len(targets), len(free))
         joints[:, list(robot.base_joints)] = x[:3]
+        joints = robot.coupled(joints)
         pose = StancePose(x[:3], joints, np.where(x[3 : 3 + n_obstacles] > RELIEVED, x[3 : 3 + n_obstacles], 0.0))
         if not any(_same(pose.base, other.base) for other in found):
             found.append(pose)

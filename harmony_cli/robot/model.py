@@ -17,6 +17,7 @@ from harmony_cli.capture import captured_output
 from harmony_cli.names import closest
 from harmony_cli.robot.arm_points import ArmChain, arm_chains
 from harmony_cli.robot.gravity import gravity_torques
+from harmony_cli.robot.mimic import Coupling, coupled
 from harmony_cli.robot.prepare import Mount, UrdfPlan, prepare_urdf
 from harmony_cli.robot.tools import tool_link
 from harmony_cli.robot.urdf import joint_types, wrist_sensor_joints
@@ -71,6 +72,11 @@ class Robot:
     actuators: str = "urdf"  # simulated motors: the URDF's efforts (urdf) or strong ones (ideal)
     arms: tuple[ArmChain, ...] = ()  # per hand, points along its arm kept off table tops and obstacles (none: not)
     mount: Mount | None = None  # the root link's pose on the virtual base (`mount: auto` resolved); None: at it
+    couplings: tuple[Coupling, ...] = ()  # mimic joints moving with their leader (robot/mimic.py)
+
+    def coupled(self, q):
+        """`q` (numpy or CasADi) with every mimic joint at its leader's value times the multiplier plus the offset."""
+        return coupled(q, self.couplings)
 
     @property
     def overloaded(self) -> tuple[str, ...]:
@@ -110,6 +116,7 @@ def urdf_plan(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) -
         base_joints=tuple(spec.base_joints),
         package_paths=tuple((scenario_dir / p).resolve() for p in spec.package_paths),
         active=None if spec.active_joints is None else tuple(spec.active_joints),
+        roles=(*spec.chest_joints, *spec.pinned_joints, *(j for pair in spec.mirrored_joints for j in pair)),
         home=dict(spec.home),
         tools=dict(spec.tools),
         mount=mount if mount is None or isinstance(mount, str) else (list(mount.xyz), list(mount.rpy_deg)),
@@ -135,7 +142,12 @@ def load_robot(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) 
     x, y, yaw_deg = spec.base_pose
     for joint, value in zip(spec.base_joints, (x, y, np.deg2rad(yaw_deg)), strict=True):
         home[names.index(joint)] = value
-    for field, joints in (("pinned_joints", spec.pinned_joints), ("chest_joints", spec.chest_joints)):
+    roles = {
+        "pinned_joints": spec.pinned_joints,
+        "chest_joints": spec.chest_joints,
+        "mirrored_joints": [j for pair in spec.mirrored_joints for j in pair],
+    }
+    for field, joints in roles.items():
         for joint in joints:
             if joint not in names:
                 raise ValueError(f"robot.{field}: {joint!r} is not an active joint; {closest(joint, names)}")
@@ -165,4 +177,7 @@ def load_robot(spec: RobotSpec, scenario_dir: Path, keep: tuple[str, ...] = ()) 
         if spec.arm_radius is None
         else arm_chains(prepared.path, tuple(end_effectors.values()), spec.arm_radius),
         mount=prepared.mount,
+        couplings=tuple(
+            Coupling(names.index(j), names.index(m.master), m.multiplier, m.offset) for j, m in prepared.coupled.items()
+        ),
     )

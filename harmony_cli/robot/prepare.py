@@ -1,17 +1,17 @@
 """Make a robot package's URDF loadable by harmony, as a prepared copy in the cache.
 
 In order: elements and joint types the parsers reject or misread are made explicit (robot/sanitize.py) and what
-remains is checked for their form (robot/urdf_form.py); the joints a scenario does not use are locked (fixed at
-their home value; mimic joints follow their master); tool frames are added, declared ones and one at each hand link
-no fixed joint holds (robot/tools.py); mesh filenames become absolute paths, so the copy can live in the cache (and
-`mount: auto` can load the meshes, robot/ground.py); the virtual planar base goes above the root, the root mounted
-on it (robot/placement.py); links without inertia get a small one; fixed links merge into their parents when
-PyBullet could not take them all (robot/reduce.py).
+remains is checked for their form (robot/urdf_form.py); the joints a scenario does not use (by default those off
+the chains to the hands, robot/active.py) are locked, fixed at their home value (mimic joints at their leader's;
+kept movable, <mimic> and all, when the leader is active: robot/mimic.py); tool frames are added, declared ones and
+one at each hand link no fixed joint holds (robot/tools.py); mesh filenames become absolute paths, so the copy can
+live in the cache (and `mount: auto` can load the meshes, robot/ground.py); the virtual planar base goes above the
+root, the root mounted on it (robot/placement.py); links without inertia get a small one; fixed links merge into
+their parents when PyBullet could not take them all (robot/reduce.py).
 """
 
 from __future__ import annotations
 
-import fnmatch
 import hashlib
 import os
 import tempfile
@@ -24,16 +24,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from harmony_cli.names import closest
+from harmony_cli.robot.active import select_joints
 from harmony_cli.robot.ground import Lowest, UnreadableUrdf, resting_mount
+from harmony_cli.robot.mimic import Mimic
 from harmony_cli.robot.origin import pose_matrix
 from harmony_cli.robot.placement import ensure_base_joints, root_link_of
 from harmony_cli.robot.reduce import lock_joints, merge_fixed_links
 from harmony_cli.robot.sanitize import (
-    Mimic,
     add_missing_inertials,
     continuous_to_revolute,
     drop_unreadable_looks,
-    mimic_joints,
     name_robot,
     strip_foreign_elements,
 )
@@ -57,7 +57,9 @@ class UrdfPlan:
 
     base_joints: tuple[str, ...] = ("base_x", "base_y", "base_yaw")
     package_paths: tuple[Path, ...] = ()
-    active: tuple[str, ...] | None = None  # fnmatch patterns of the joints the MPCs use; None: every movable one
+    active: tuple[str, ...] | None = None  # fnmatch patterns of the joints the MPCs use; None: the chains to the
+    # hands and the roles' joints (robot/active.py)
+    roles: tuple[str, ...] = ()  # joints the robot section gives a role (chest, pinned, mirrored)
     home: dict[str, float] = field(default_factory=dict)  # [deg] revolute and continuous, [m] prismatic
     tools: dict[str, ToolSpec] = field(default_factory=dict)
     mount: Mount | str | None = None  # the root on the base; AUTO: resting on the ground; None: at the base
@@ -79,13 +81,20 @@ class PreparedUrdf:
     hand_tools: tuple[str, ...] = ()  # hands given a tool frame at their link (no fixed joint holds it)
     mount: Mount | None = None  # the root on the virtual base (AUTO resolved); None: at the base's origin
     rested: Lowest | None = None  # the lowest point AUTO lifted onto the ground (None: it did not lift)
+    coupled: dict[str, Mimic] = field(default_factory=dict)  # mimic joints moving with an active leader
+    by_default: bool = True  # the chains to the hands chose the active joints (no robot.active_joints)
 
     def notes(self) -> list[str]:
         """One line per kind of change, for run.log and `harmony robots show`."""
         kinds = {
             "dropped elements": [f"{tag} x{n}" for tag, n in self.dropped.items()],
             "continuous joints (unbounded revolute)": list(self.continuous),
-            "locked joints": [f"{j}={v:.4g}" for j, v in self.locked.items()],
+            f"locked joints ({'off the chains to the hands' if self.by_default else 'not in robot.active_joints'})": [
+                f"{j}={v:.4g}" for j, v in self.locked.items()
+            ],
+            "mimic joints moving with their leader": [
+                f"{j}={m.multiplier:g}*{m.master}{m.offset:+g}" for j, m in self.coupled.items()
+            ],
             "links given a small inertia": list(self.massless),
             "fixed links merged into their parents": list(self.merged),
             "tool frames at the hand link (a movable joint holds it)": list(self.hand_tools),
@@ -104,16 +113,12 @@ def prepare_urdf(urdf: Path, plan: UrdfPlan, cache_dir: Path) -> PreparedUrdf:
     written to `cache_dir` as `<stem>_<content hash>.urdf`. ValueError (`robot.<field>: ...`) for what cannot be."""
     original, urdf = Path(urdf), Path(urdf).resolve()
     robot, dropped, named = _model(urdf)
-    mimics = mimic_joints(robot)
     home = home_values(robot, plan.home, urdf, plan.base_joints)
-    movable = [
-        required(j, "name", "joint")
-        for j in robot.findall("joint")
-        if j.get("type") != "fixed" and j.get("name") not in plan.base_joints
-    ]
-    active = select_active(movable, plan.active, mimics, urdf)
-    locked = {j: home.get(j, 0.0) for j in movable if j not in active and j not in mimics}
-    locked |= {j: m.value(locked.get(m.master, 0.0)) for j, m in mimics.items() if j in movable}
+    chains = {f"tools.{hand}.parent": tool.parent for hand, tool in plan.tools.items()}
+    chains |= {f"end_effectors.{hand}": link for hand, link in plan.hands.items() if hand not in plan.tools}
+    joints = select_joints(robot, plan.active, chains, plan.roles, plan.base_joints, home, urdf)
+    home |= {j: m.value(home.get(m.master, 0.0)) for j, m in joints.coupled.items()}
+    locked = joints.locked
     lock_joints(robot, locked)
     continuous = continuous_to_revolute(robot)
     for hand, tool in plan.tools.items():
@@ -137,7 +142,18 @@ def prepare_urdf(urdf: Path, plan: UrdfPlan, cache_dir: Path) -> PreparedUrdf:
         ET.indent(robot, space="  ")
         path = _write_cached(f'<?xml version="1.0"?>\n{ET.tostring(robot, encoding="unicode")}\n', urdf.stem, cache_dir)
     return PreparedUrdf(
-        path, home, tuple(continuous), locked, dropped, tuple(massless), tuple(merged), tuple(hand_tools), mount, rested
+        path,
+        home,
+        tuple(continuous),
+        locked,
+        dropped,
+        tuple(massless),
+        tuple(merged),
+        tuple(hand_tools),
+        mount,
+        rested,
+        joints.coupled,
+        joints.by_default,
     )
 
 
@@ -195,36 +211,6 @@ def home_values(
                 )
         values[name] = value
     return values
-
-
-def select_active(
-    movable: list[str], patterns: tuple[str, ...] | None, mimics: dict[str, Mimic], urdf: Path
-) -> list[str]:
-    """The movable joints `patterns` match (all but mimic joints when None); mimic couplings refused."""
-    if patterns is None:
-        chosen = [j for j in movable if j not in mimics]
-    else:
-        for pattern in patterns:
-            if not fnmatch.filter(movable, pattern):
-                raise ValueError(
-                    f"robot.active_joints: {pattern!r} matches no movable joint of {urdf.name}; "
-                    f"{closest(pattern, movable)}"
-                )
-        chosen = [j for j in movable if any(fnmatch.fnmatchcase(j, p) for p in patterns)]
-    for joint, mimic in mimics.items():
-        if joint in chosen:
-            raise ValueError(
-                f"robot.active_joints: {joint!r} mimics {mimic.master!r} and harmony does not couple joints; "
-                f"leave it out (it is then locked, following {mimic.master!r})"
-            )
-        if mimic.master in chosen:
-            by_default = " (every movable joint is by default)" if patterns is None else ""
-            raise ValueError(
-                f"robot.active_joints: {mimic.master!r} is active{by_default} but {joint!r} mimics it and harmony "
-                f"does not couple joints; list the joints the MPCs use in robot.active_joints without "
-                f"{mimic.master!r} (both are then locked at home)"
-            )
-    return chosen
 
 
 def _fixed_chains(robot: ET.Element, links: tuple[str, ...]) -> set[str]:

@@ -70,8 +70,10 @@ def home_at_origin(robot: Robot) -> np.ndarray:
 
 
 def arm_joints(robot: Robot) -> tuple[list[int], np.ndarray, np.ndarray]:
-    """The joints that move but the base's and the pinned ones (indices), and their bounds (continuous: none)."""
-    free = [i for i in range(robot.n_dof) if i not in robot.base_joints and i not in robot.pinned_joints]
+    """The joints that move but the base's, the pinned ones and mimic joints (their leaders move them: `coupled`)
+    (indices), and their bounds (continuous: none)."""
+    held = {*robot.base_joints, *robot.pinned_joints, *(c.follower for c in robot.couplings)}
+    free = [i for i in range(robot.n_dof) if i not in held]
     unbounded = np.isin(free, robot.continuous)
     return free, np.where(unbounded, -np.inf, robot.lower[free]), np.where(unbounded, np.inf, robot.upper[free])
 
@@ -86,6 +88,7 @@ class _Level:
         q = cs.SX(self.home)
         for k, i in enumerate(self.free):
             q[i] = self.x[k]
+        q = robot.coupled(q)
         self.poses = [robot.hand_pose(h, q) for h in range(len(robot.end_effectors))]
         self.home_rotations = [r for _, r in robot.hand_poses_numeric(self.home)]
 
@@ -109,5 +112,5 @@ class _Level:
             if solver.stats()["success"] and (best is None or -float(out["f"]) > best[0]):
                 q = self.home.copy()
                 q[free] = np.asarray(out["x"]).ravel()[:-1]
-                best = -float(out["f"]), q
+                best = -float(out["f"]), self.robot.coupled(q)
         return best

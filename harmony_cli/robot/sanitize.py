@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from collections import Counter
-from dataclasses import dataclass
 
 from harmony_cli.robot.urdf import required
 from harmony_cli.robot.urdf_form import numbers, shape_problem
@@ -24,16 +23,6 @@ KEPT_ELEMENTS = ("link", "joint", "material")
 CONTINUOUS_LIMIT = 1000.0  # [rad]: no bound an MPC step or a simulation ever reaches
 MASSLESS_LINK_MASS = 1e-3  # [kg] with a 1e-3 m radius of gyration
 MASSLESS_LINK_INERTIA = MASSLESS_LINK_MASS * 1e-6
-
-
-@dataclass(frozen=True)
-class Mimic:
-    master: str
-    multiplier: float
-    offset: float
-
-    def value(self, master_value: float) -> float:
-        return self.multiplier * master_value + self.offset
 
 
 def strip_foreign_elements(robot: ET.Element) -> dict[str, int]:
@@ -108,17 +97,3 @@ def add_missing_inertials(robot: ET.Element, root_link: str) -> list[str]:
         ET.SubElement(inertial, "inertia", ixx=i, ixy="0", ixz="0", iyy=i, iyz="0", izz=i)
         names.append(required(link, "name", "link"))
     return names
-
-
-def mimic_joints(robot: ET.Element) -> dict[str, Mimic]:
-    """Joint -> the joint it mimics (value = multiplier * master + offset)."""
-    mimics = {}
-    for joint in robot.findall("joint"):
-        mimic = joint.find("mimic")
-        if mimic is not None:
-            mimics[required(joint, "name", "joint")] = Mimic(
-                required(mimic, "joint", "mimic"),
-                float(mimic.get("multiplier", 1.0)),
-                float(mimic.get("offset", 0.0)),
-            )
-    return mimics

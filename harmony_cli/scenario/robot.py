@@ -52,7 +52,10 @@ class RobotSpec(Strict):
     active_joints: list[str] | None = Field(
         None,
         description="joints the MPCs use (names or fnmatch patterns such as arm_left_*); every other joint is "
-        "locked at its home value; default: every movable joint (the base joints always)",
+        "locked at its home value (run.log counts them); default: the joints on the chains from the URDF's root to "
+        "each hand's link (a tool's parent link) and those of pinned_joints, chest_joints and mirrored_joints (the "
+        "base joints always). A mimic joint moves with its leader when the leader is active (one on a chain makes "
+        "its leader active) and is locked at the leader's value otherwise; list it with its leader or not at all",
     )
     base_joints: list[str] = Field(
         ["base_x", "base_y", "base_yaw"],
@@ -68,7 +71,9 @@ class RobotSpec(Strict):
         "one of the fixed joints between the end effector and the last movable joint above it; "
         "default: the joint whose child holds the end-effector frame (EVA: *ARM_TOOL_JOINT)",
     )
-    pinned_joints: list[str] = Field([], description="held at home in every MPC (EVA: the head)")
+    pinned_joints: list[str] = Field(
+        [], description="held at home in every MPC (EVA: the head); active joints, off the chains to the hands too"
+    )
     chest_joints: list[str] = Field(
         [], description="torso yaw joints, regularised towards 0 (EVA: CHEST_JOINT0; not a lift)"
     )
