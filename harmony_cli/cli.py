@@ -11,6 +11,7 @@ import typer
 from pydantic import ValidationError
 
 from harmony_cli.commands.study import study
+from harmony_cli.commands.upgrade import upgrade
 from harmony_cli.commands.view import view
 from harmony_cli.console import fail, literal, say, warn
 from harmony_cli.scenario import Scenario, ScenarioError, load_scenario, robot_warnings
@@ -79,7 +80,9 @@ def run(
     try:
         if video_path is not None and video_path.suffix.lower() not in (".mp4", ".gif"):
             fail(f"--video-file: {str(video_path)!r} must end in .mp4 or .gif")
-        warn(robot_warnings(load_scenario(scenario, set), scenario.parent))
+        notices: list[str] = []  # a file of an older schema: its deprecation notice
+        loaded = load_scenario(scenario, set, notices)
+        warn(notices + robot_warnings(loaded, scenario.parent))
         target = video_path or (True if video else None)
         run_dir = run_scenario(scenario, set, out, progress=not quiet, video=target, push_free_twin=twin)
     except (ScenarioError, SolverUnavailable) as exc:
@@ -119,8 +122,9 @@ def compare(
     from harmony_cli.report.tables import compare_report
 
     try:
-        base = load_scenario(scenario, set)
-        warn(robot_warnings(base, scenario.parent))
+        notices: list[str] = []
+        base = load_scenario(scenario, set, notices)
+        warn(notices + robot_warnings(base, scenario.parent))
         for point in expand_grid(grid):
             load_scenario(scenario, list(set) + point)  # every grid point is valid before anything runs
     except ScenarioError as exc:
@@ -146,11 +150,13 @@ def validate(files: list[Path], set: list[str] = typer.Option([], "--set", help=
     bad."""
     bad = broken = 0
     for f in files:  # every file reported, whatever the others do
+        notices: list[str] = []  # a file of an older schema: its deprecation notice, whatever else it says
         try:
-            loaded = load_scenario(f, set)
+            loaded = load_scenario(f, set, notices)
             typer.echo(literal(f"{f}: ok"))
-            warn(robot_warnings(loaded, f.parent))
+            warn(notices + robot_warnings(loaded, f.parent))
         except ScenarioError as exc:
+            warn(notices)
             say("error:", "red", str(exc))
             bad += 1
         except Exception as exc:  # noqa: BLE001 - a bug of harmony's, not the file's: say so and go on
@@ -289,4 +295,5 @@ def summarise(run_dir: Path):
 
 
 app.command()(study)
+app.command()(upgrade)
 app.command()(view)

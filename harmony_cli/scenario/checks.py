@@ -50,12 +50,23 @@ def check_urdf(path: Path, urdf: Path) -> None:
                 )
 
 
+def urdf_file(path: Path, urdf: str) -> Path:
+    """A robot.urdf as written, resolved against the scenario's folder; ScenarioError naming the field and the path
+    when nothing is there (before anything else about the robot: a moved URDF is not a robot without hands)."""
+    try:
+        resolved = (path.parent / urdf).resolve()
+        there = resolved.exists()
+    except (OSError, ValueError) as err:  # a NUL character, a name too long for the file system
+        raise ScenarioError(f"{path}: robot.urdf: {brief(urdf)} is not a usable path ({err})") from None
+    if not there:
+        raise ScenarioError(f"{path}: robot.urdf: {urdf!r} does not exist (looked at {resolved})")
+    return resolved
+
+
 def check_robot(path: Path, scenario: Scenario) -> None:
     """Names the robot section gives exist in the URDF (the three closest suggested when not)."""
     spec = scenario.robot
-    urdf = (path.parent / spec.urdf).resolve()
-    if not urdf.exists():
-        raise ScenarioError(f"{path}: robot.urdf: {spec.urdf!r} does not exist (looked at {urdf})")
+    urdf = urdf_file(path, spec.urdf)
     check_urdf(path, urdf)
     try:
         joints, links = joints_and_links(urdf)

@@ -46,7 +46,11 @@ def one_line(path: Path, err: ValidationError, root: type[BaseModel] = Scenario)
     value = e.get("input")
     if e["type"] == "extra_forbidden":
         parent = _model_at(loc[:-1], root)
-        choices = ", ".join(parent.model_fields) if parent else "see `harmony schema`"
+        choices = (
+            ", ".join(field.alias or name for name, field in parent.model_fields.items())
+            if parent
+            else "see `harmony schema`"
+        )
         return f"{path}: {field}: unknown key (value {brief(value)}); valid keys: {choices}"
     if e["type"] == "missing":
         return f"{path}: {field}: required field is missing"

@@ -9,9 +9,17 @@ from pathlib import Path
 import yaml
 from pydantic import ValidationError
 
-from harmony_cli.scenario.checks import check_pushes, check_robot, check_robot_builds, check_solver, check_task
+from harmony_cli.scenario.checks import (
+    check_pushes,
+    check_robot,
+    check_robot_builds,
+    check_solver,
+    check_task,
+    urdf_file,
+)
 from harmony_cli.scenario.errors import ScenarioError, one_line
 from harmony_cli.scenario.models import Scenario
+from harmony_cli.scenario.schema import as_current
 from harmony_cli.scenario.source import load_yaml_file, parse_yaml
 
 
@@ -50,16 +58,21 @@ def list_index(items: list, part: str, where: str) -> int:
     raise ScenarioError(f"{where}: {part!r} is not an index of a list of {len(items)}{named}")
 
 
-def load_scenario(path: str | Path, overrides: Sequence[str] = ()) -> Scenario:
-    """Read, override and validate a scenario; raise ScenarioError with a one-line message."""
+def load_scenario(path: str | Path, overrides: Sequence[str] = (), notices: list[str] | None = None) -> Scenario:
+    """Read (a file of an older schema as the current one: its deprecation notice appended to `notices`), override
+    and validate a scenario; raise ScenarioError with a one-line message."""
     path = Path(path)
     raw = load_yaml_file(path)
     if not isinstance(raw, dict):
         raise ScenarioError(f"{path}: expected a mapping at the top level, got {type(raw).__name__}")
+    raw = as_current(raw, path, notices)
     try:
         raw = apply_overrides(raw, list(overrides))
     except ScenarioError as err:
         raise ScenarioError(f"{path}: {err}") from None
+    robot = raw.get("robot")
+    if isinstance(robot, dict) and isinstance(robot.get("urdf"), str):  # a missing URDF first, as such
+        urdf_file(path, robot["urdf"])
     try:
         scenario = Scenario.model_validate(raw)
     except ValidationError as err:
@@ -73,4 +86,5 @@ def load_scenario(path: str | Path, overrides: Sequence[str] = ()) -> Scenario:
 
 
 def scenario_yaml(scenario: Scenario) -> str:
+    """The scenario as YAML, every field given (`schema: 2` first): what a run directory keeps."""
     return yaml.safe_dump(scenario.model_dump(mode="json"), sort_keys=False)

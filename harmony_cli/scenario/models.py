@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from typing import Any, Literal
 
-from pydantic import Field, PositiveFloat, ValidationInfo, field_validator
+from pydantic import ConfigDict, Field, PositiveFloat, ValidationInfo, field_validator
 
 from harmony_cli.mpc.registry import HARMONY_SOLVERS, QpName
 from harmony_cli.scenario.base import Strict
@@ -195,6 +195,14 @@ class SimSpec(Strict):
 
 
 class Scenario(Strict):
+    model_config = ConfigDict(**Strict.model_config, serialize_by_alias=True)  # `schema`, as the file has it
+
+    schema_version: Literal[2] = Field(
+        2,
+        alias="schema",
+        description="the scenario format's version; files of schema 1 (no `schema` key, `robot.home_deg` or "
+        "EVA's URDF by its path) load with a notice, and `harmony upgrade FILE` rewrites them",
+    )
     name: str
     description: str = ""
     seed: int = 0
