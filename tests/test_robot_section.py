@@ -203,3 +203,22 @@ def test_a_catalogue_robot_run_prints_only_its_summary_and_logs_the_rest(tmp_pat
     assert done.stdout.startswith(f"{out}: completed, 108 decision variables")
     log = (out / "run.log").read_text()
     assert "urdf: locked joints (not in robot.active_joints): 86" in log and "pybullet: " in log
+    assert "urdf: locked joints: 86" in log and "pybullet: " in log
+
+
+def test_a_scenario_names_a_urdf_and_its_meshes_inside_example_robot_data_as_a_preset_does(tmp_path):
+    # the same file a preset names, written the preset's way in a user's robot section: no machine's path in it
+    preset = load_scenario(_written(tmp_path, "robot: {preset: tiago_dual}")).robot
+    section = (
+        "robot: {urdf: 'example-robot-data:example-robot-data/robots/tiago_description/robots/tiago_dual.urdf', "
+        "package_paths: ['example-robot-data:'], end_effectors: {left: arm_left_tool_link, right: arm_right_tool_link}}"
+    )
+    own = load_scenario(_written(tmp_path, section)).robot
+    assert own.urdf == preset.urdf and Path(own.urdf).is_file()
+    assert own.package_paths == preset.package_paths and Path(own.package_paths[0]).is_dir()
+
+
+def _written(tmp_path: Path, robot: str) -> Path:
+    path = tmp_path / "scene.yaml"
+    path.write_text(f"name: x\n{robot}\nreference: {{type: hold}}\n")
+    return path

@@ -24,15 +24,25 @@ def available_presets() -> tuple[str, ...]:
 
 def resolve_path(text: str, name: str) -> str:
     """A preset's path: `distribution:relative` inside an installed distribution, else relative to the preset."""
+    try:
+        inside = distribution_path(text)
+    except PresetUnavailable as err:
+        raise PresetUnavailable(f"preset {name!r} {err}") from None
+    return str((PRESETS_DIR / text).resolve()) if inside is None else inside
+
+
+def distribution_path(text: str) -> str | None:
+    """The absolute path a `distribution:relative` path names inside an installed distribution that ships robot
+    packages (ROBOT_DISTRIBUTIONS), or None for any other path; PresetUnavailable when it is not installed."""
     distribution, sep, inside = text.partition(":")
     if not sep or distribution not in ROBOT_DISTRIBUTIONS:
-        return str((PRESETS_DIR / text).resolve())
+        return None
     try:
         dist = importlib.metadata.distribution(distribution)
     except importlib.metadata.PackageNotFoundError:
         raise PresetUnavailable(
-            f"preset {name!r} needs the Python package {distribution} (its URDFs): "
-            f"pip install {distribution}, or `make install`, which installs it"
+            f"needs the Python package {distribution} (its URDFs): pip install {distribution}, or `make install`, "
+            "which installs it"
         ) from None
     return str(Path(str(dist.locate_file(ROBOT_DISTRIBUTIONS[distribution]))) / inside)
 

@@ -8,7 +8,7 @@ from typing import Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from harmony_cli.robot.presets import PresetUnavailable, available_presets, load_preset
+from harmony_cli.robot.presets import PresetUnavailable, available_presets, distribution_path, load_preset
 from harmony_cli.robot.tools import PAD, tool_link
 from harmony_cli.scenario.base import Size3, Strict, Vector3
 
@@ -37,7 +37,10 @@ class RobotSpec(Strict):
         description=f"robot preset (harmony_cli/robot/presets/<name>.yaml) that gives every field not set "
         f"here; default {DEFAULT_PRESET!r} when `urdf` is not given, else none",
     )
-    urdf: str = Field(description="URDF path, relative to the scenario file (required without a preset)")
+    urdf: str = Field(
+        description="URDF path, relative to the scenario file, or `example-robot-data:<path>` inside that "
+        "installed package (required without a preset)"
+    )
     end_effectors: dict[str, str] = Field(
         {},
         description="hand label -> end-effector link, the frame every MPC controls (z = pad normal, out of the "
@@ -64,7 +67,11 @@ class RobotSpec(Strict):
         description="virtual planar base joints x, y, yaw, commanded by velocity; added "
         "(prismatic, prismatic, revolute) when the URDF has none of them",
     )
-    package_paths: list[str] = Field([], description="where package:// mesh URIs resolve (relative to the file)")
+    package_paths: list[str] = Field(
+        [],
+        description="where package:// mesh URIs resolve (relative to the file, or `example-robot-data:` for that "
+        "installed package)",
+    )
     wrist_sensors: dict[str, str] | None = Field(
         None,
         description="hand -> fixed joint carrying the tool, where PyBullet measures the wrist force/torque; "
@@ -140,6 +147,16 @@ class RobotSpec(Strict):
             raise ValueError(f"end_effectors: {sorted(frames)}: a dual-arm robot needs two hands (or tools){keep}")
         return self
 
+    @field_validator("urdf")
+    @classmethod
+    def _urdf_in_a_package(cls, value: str) -> str:
+        return _in_distribution(value)
+
+    @field_validator("package_paths")
+    @classmethod
+    def _packages_in_a_package(cls, value: list[str]) -> list[str]:
+        return [_in_distribution(path) for path in value]
+
     @field_validator("mount", mode="before")
     @classmethod
     def _mount_word(cls, value: Any) -> Any:
@@ -162,3 +179,13 @@ class RobotSpec(Strict):
         if name is not None and name not in available_presets():
             raise ValueError(f"not a robot preset; choose one of: {', '.join(available_presets())}")
         return name
+
+
+def _in_distribution(path: str) -> str:
+    """A `distribution:relative` path (a robot package's Python distribution, e.g. example-robot-data) made absolute;
+    any other path as written (relative to the scenario file)."""
+    try:
+        inside = distribution_path(path)
+    except PresetUnavailable as err:
+        raise ValueError(f"{path!r} {err}") from None
+    return path if inside is None else inside
