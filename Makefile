@@ -5,7 +5,7 @@ STAMP := $(VENV)/.installed
 HARMONY := $(VENV)/bin/harmony
 TABLE1 := scenarios/paper/table1_s_shape.yaml
 
-.PHONY: install lint test test-slow bench reproduce-paper study study-validation docs clean
+.PHONY: install lint test test-slow bench reproduce-paper robots-unedited study study-validation docs clean
 
 # Ranges live in pyproject.toml; constraints.txt pins the versions every install uses (refresh it with
 # `.venv/bin/pip freeze | grep -v '^-e' > constraints.txt` after a deliberate upgrade).
@@ -76,6 +76,15 @@ reproduce-paper: $(STAMP)
 		results/paper/push_recovery_admittance_$$a.png; done
 	$(VENV)/bin/python tools/render_docs.py
 
+# the catalogue S for robots as example-robot-data ships them, each from a robot section of at most five lines and
+# no preset (scenarios/robots/unedited/); a robot whose run fails is tabulated with its failure, not skipped
+UNEDITED := pr2 tiago_dual baxter talos g1 centauro romeo icub
+robots-unedited: $(STAMP)
+	for r in $(UNEDITED); do $(HARMONY) run scenarios/robots/unedited/$$r.yaml \
+		--out results/robots_unedited/runs/$$r --quiet; done; true
+	$(HARMONY) experiments $(addprefix results/robots_unedited/runs/,$(UNEDITED)) --out results/robots_unedited \
+		--name robots_unedited
+
 # pick_and_carry over randomised scenes on 2 local jobs (resumable: started again, it runs what is missing): `study`
 # runs the 100 draws for development (dev), `study-validation` the 200 that are run to report, never to choose
 # between variants; their reports, figures and study.parquet are committed under results/studies/ (the run
@@ -87,4 +96,4 @@ study-validation: $(STAMP)
 	$(HARMONY) study studies/pick_and_carry_random.yaml --draws validation --jobs 2
 
 clean:
-	rm -rf results/runs results/compare results/bench results/paper/runs results/paper/push_recovery results/paper/robots .pytest_cache .hypothesis
+	rm -rf results/runs results/compare results/bench results/robots_unedited/runs results/paper/runs results/paper/push_recovery results/paper/robots .pytest_cache .hypothesis

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import click
 import typer
-from pydantic import ValidationError
 
+from harmony_cli.commands.robots import robots_app
 from harmony_cli.commands.study import study
 from harmony_cli.commands.upgrade import upgrade
 from harmony_cli.commands.view import view
@@ -166,46 +166,6 @@ def validate(files: list[Path], set: list[str] = typer.Option([], "--set", help=
         raise typer.Exit(2 if bad else 1)
 
 
-robots_app = typer.Typer(
-    no_args_is_help=False, invoke_without_command=True, help="Robot presets: list them, or show one (`show NAME`)."
-)
-app.add_typer(robots_app, name="robots")
-
-
-@robots_app.callback()
-def robots(context: typer.Context):
-    """List the robot presets (`robot: {preset: NAME}`) and where their URDF comes from."""
-    if context.invoked_subcommand is not None:
-        return
-    from harmony_cli.robot.presets import PRESETS_DIR, available_presets
-
-    for name in available_presets():
-        first = (PRESETS_DIR / f"{name}.yaml").read_text().splitlines()[0].lstrip("# ")
-        typer.echo(f"{name:<12} {first}")
-
-
-@robots_app.command("show")
-def robots_show(name: str):
-    """Joints, limits, hand frames, wrist sensors, what preparing the URDF changed and the gravity check."""
-    from harmony_cli.names import closest
-    from harmony_cli.report.robot_text import robot_lines
-    from harmony_cli.robot.model import load_robot
-    from harmony_cli.robot.presets import available_presets
-    from harmony_cli.scenario import RobotSpec
-
-    if name not in available_presets():
-        fail(f"robots show: {name!r} is not a robot preset; {closest(name, available_presets())}")
-    try:
-        spec = RobotSpec.model_validate({"preset": name})
-        robot = load_robot(spec, Path.cwd())
-    except ValidationError as exc:
-        fail(f"robots show {name}: {exc.errors()[0]['msg']}")
-    except ValueError as exc:
-        fail(f"robots show {name}: {exc}")
-    for line in robot_lines(name, robot):
-        typer.echo(line)
-
-
 @app.command()
 def schema():
     """Print the scenario JSON schema (for editors)."""
@@ -296,4 +256,5 @@ def summarise(run_dir: Path):
 
 app.command()(study)
 app.command()(upgrade)
+app.add_typer(robots_app, name="robots")
 app.command()(view)

@@ -222,3 +222,19 @@ def _written(tmp_path: Path, robot: str) -> Path:
     path = tmp_path / "scene.yaml"
     path.write_text(f"name: x\n{robot}\nreference: {{type: hold}}\n")
     return path
+
+
+def test_robots_check_prints_what_harmony_makes_of_a_scenario_s_robot_and_its_reach():
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "smoke" / "twin_arm_turn.yaml"
+    result = runner.invoke(app, ["robots", "--check", str(scene)])
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    assert lines[0].startswith("twin_arm_turn.yaml: ") and "active joints" in lines[0]
+    assert any(line.strip().startswith("hand left: frame ") for line in lines)
+    reach = [line for line in lines if line.strip().startswith("reach: both hands together")]
+    assert len(reach) == 1 and float(reach[0].split("z = ")[1].split()[0]) > 0.5
+
+
+def test_robots_check_of_a_file_that_is_not_there_is_one_line():
+    result = runner.invoke(app, ["robots", "--check", "no/such/scene.yaml"])
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1 and "Traceback" not in result.output

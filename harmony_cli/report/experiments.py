@@ -17,6 +17,8 @@ def _row(run: Path) -> dict:
     """One run's outcomes, recomputed from its steps and resolved scenario (the metrics of this version)."""
     s = json.loads((run / "summary.json").read_text())
     scenario = load_scenario(run / "scenario.resolved.yaml")
+    if scenario.task is None:
+        return _tracking_row(s, scenario)
     task = task_outcome(pd.read_csv(run / "steps.csv"), scenario, list(scenario.robot.end_effectors))
     loop = task["loop_time_ms"]
     clearance = task.get("min_clearance_m", {})
@@ -43,6 +45,25 @@ def _row(run: Path) -> dict:
         value = f"{c['robot']:.3f}, {c['box']:.3f}" if "box" in c else f"{c['robot']:.3f}"
         row[f"clearance {name} (robot, box) [m]"] = value + (" (moving)" if name in moving else "")
     return row
+
+
+def _tracking_row(s: dict, scenario) -> dict:
+    """A hand-trajectory run's row: the robot and its model's size, how closely the hands followed the reference,
+    and the verdict against its tolerance (report/tracking.py)."""
+    e, t, tracking = s.get("tracking_error", {}), s.get("solve_time_ms", {}), s.get("tracking", {})
+    return {
+        "experiment": s["name"],
+        "status": s["status"],
+        "robot": scenario.robot.preset or Path(scenario.robot.urdf).name,
+        "joints (MPC)": s.get("n_dof"),
+        "decision variables": s.get("decision_variables"),
+        "max tracking error [cm]": None if "max_m" not in e else 100 * e["max_m"],
+        "max rotation error [deg]": e.get("max_rot_deg"),
+        "failed solves": f"{s.get('failed_solves')} / {s.get('steps')}",
+        "solve median / p95 / max [ms]": f"{t.get('median', float('nan')):.2f} / {t.get('p95', float('nan')):.2f}"
+        f" / {t.get('max', float('nan')):.2f}",
+        "tracking": tracking.get("verdict", "-") if s["status"] == "completed" else "-",  # judged on a whole run
+    }
 
 
 def _frame(video: Path, target: Path, at: float = 0.5) -> Path | None:
@@ -76,10 +97,14 @@ def experiments_report(dirs: list[Path], out: Path, name: str = "experiments") -
         + "\n"
         + "".join(f"| {item} | " + " | ".join(fmt(v) for v in row) + " |\n" for item, row in items.iterrows())
     )
+    tasks = "success" in frame.columns  # a hand trajectory's row has a tracking verdict instead
+    title, timed = (
+        ("Two-stage experiments", "loop = planner + whole-body MPC, observation to command")
+        if tasks
+        else ("Hand-trajectory runs", "solve = the whole-body MPC's solver call")
+    )
     written[1].write_text(
-        f"# Two-stage experiments\n\n{markdown}\nMeasured by harmony on "
-        f"{meta.get('cpu', '?')}, one run at a time; loop = planner + whole-body MPC, observation "
-        f"to command.\n"
+        f"# {title}\n\n{markdown}\nMeasured by harmony on {meta.get('cpu', '?')}, one run at a time; {timed}.\n"
     )
     for d in dirs:
         scenario = load_scenario(d / "scenario.resolved.yaml")

@@ -1,11 +1,15 @@
-"""`harmony robots show`: what harmony makes of a robot - its active joints and limits, locked joints, hand frames
-and wrist sensors, what preparing its URDF changed, and whether it can hold its home pose."""
+"""`harmony robots show` / `--check FILE`: what harmony makes of a robot - its active joints and limits, locked
+joints, hand frames and wrist sensors, what preparing its URDF changed (the chains to the hands, the mount), how
+high its hands reach together, and whether it can hold its home pose."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 
 from harmony_cli.robot.model import Robot
+from harmony_cli.robot.reach import hand_ceiling
 
 
 def robot_lines(name: str, robot: Robot) -> list[str]:
@@ -38,3 +42,16 @@ def robot_lines(name: str, robot: Robot) -> list[str]:
     )
     lines.append(f"  gravity check (Pinocchio): {verdict}")
     return lines
+
+
+def scenario_robot_lines(path: Path) -> list[str]:
+    """robot_lines for the robot section of the scenario file at `path`, and the hands' reach: the highest both get
+    together with the pads level, as far apart as at home (robot/reach.py)."""
+    from harmony_cli.scenario import load_scenario, robot_of
+
+    robot = robot_of(load_scenario(path), path.parent)
+    (left, _), (right, _) = robot.hand_poses_numeric(robot.home)[:2]
+    width = float(np.linalg.norm(np.asarray(right) - np.asarray(left)))
+    ceiling = hand_ceiling(robot, width)
+    reach = "no pose found" if ceiling is None else f"z = {ceiling:.3f} m"
+    return [*robot_lines(path.name, robot), f"  reach: both hands together, pads level, {width:.3f} m apart: {reach}"]

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from harmony_cli.names import closest
+from harmony_cli.robot.presets import PresetUnavailable, distribution_path
 from harmony_cli.robot.tools import tool_link
 from harmony_cli.robot.urdf import joints_and_links
 from harmony_cli.scenario.errors import ScenarioError, brief
@@ -51,10 +52,15 @@ def check_urdf(path: Path, urdf: Path) -> None:
 
 
 def urdf_file(path: Path, urdf: str) -> Path:
-    """A robot.urdf as written, resolved against the scenario's folder; ScenarioError naming the field and the path
-    when nothing is there (before anything else about the robot: a moved URDF is not a robot without hands)."""
+    """A robot.urdf as written, resolved against the scenario's folder (or inside an installed robot package);
+    ScenarioError naming the field and the path when nothing is there (before anything else about the robot: a
+    moved URDF is not a robot without hands)."""
     try:
-        resolved = (path.parent / urdf).resolve()
+        inside = distribution_path(urdf)  # `example-robot-data:<path>`, as the presets write it
+    except PresetUnavailable as err:
+        raise ScenarioError(f"{path}: robot.urdf: {urdf!r} {err}") from None
+    try:
+        resolved = (path.parent / (inside or urdf)).resolve()
         there = resolved.exists()
     except (OSError, ValueError) as err:  # a NUL character, a name too long for the file system
         raise ScenarioError(f"{path}: robot.urdf: {brief(urdf)} is not a usable path ({err})") from None
