@@ -202,8 +202,7 @@ def test_a_catalogue_robot_run_prints_only_its_summary_and_logs_the_rest(tmp_pat
     assert done.stderr == "" and done.stdout.splitlines() == [done.stdout.strip()], done.stdout
     assert done.stdout.startswith(f"{out}: completed, 108 decision variables")
     log = (out / "run.log").read_text()
-    assert "urdf: locked joints (not in robot.active_joints): 86" in log and "pybullet: " in log
-    assert "urdf: locked joints: 86" in log and "pybullet: " in log
+    assert "urdf: locked joints (off the chains to the hands): 86" in log and "pybullet: " in log
 
 
 def test_a_scenario_names_a_urdf_and_its_meshes_inside_example_robot_data_as_a_preset_does(tmp_path):
