@@ -270,3 +270,21 @@ def test_each_set_of_draws_has_its_own_seed_and_directory_and_a_set_not_in_the_f
         plan_study(path, Options(draws="test", progress=False))
     test = plan_study(path, Options(draws="test", seed=11, samples=2, progress=False))
     assert test.out == Path("results/studies/smoke_box_lift/test") and len(test.runs) == 2
+
+
+def test_a_study_over_a_base_scenario_of_the_old_schema_says_so_once_with_its_renames(tmp_path, capsys):
+    (tmp_path / "old.yaml").write_text(
+        "name: old\nrobot: {preset: eva, home_deg: {LARM_JOINT2: -30, RARM_JOINT2: -30}}\nreference: {type: hold}\n"
+        "sim: {duration: 0.2}\n"
+    )
+    path = tmp_path / "study.yaml"
+    path.write_text(
+        "name: old_base\nscenario: old.yaml\nsamples: 1\nseed: 1\n"
+        "vary:\n  robot.base_pose: {uniform: [[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]], relative: true}\n"
+    )
+    _, sampler = _sampler(path)
+    assert len(sampler.notices) == 1 and "robot.home_deg -> robot.home" in sampler.notices[0]
+    plan_study(path, Options(tmp_path / "out", 1, None, None, None, None, (), "none", False))
+    printed = capsys.readouterr()
+    warned = [line for line in (printed.out + printed.err).splitlines() if "robot.home_deg -> robot.home" in line]
+    assert len(warned) == 1 and warned[0].startswith("warning:")

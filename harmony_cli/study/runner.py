@@ -10,6 +10,7 @@ from pathlib import Path
 import pandas as pd
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
+from harmony_cli.console import warn
 from harmony_cli.experiment.interrupts import RunInterrupted
 from harmony_cli.scenario import ScenarioError, load_scenario, scenario_yaml
 from harmony_cli.study.execute import Job, run_here, run_pool, run_ray
@@ -99,6 +100,7 @@ def plan_study(path: Path, options: Options) -> Plan:
     name, draws = draw_set(spec, options.draws, options.seed, options.samples)
     scenario_path = base_scenario_path(path, spec)
     sampler = Sampler(spec, scenario_path, SceneCheck(scenario_path.parent, spec.check.clearance), (name, draws.seed))
+    warn(sampler.notices)
     out = study_dir(spec, name, options.out)
     with _bar(options.progress) as bar:
         task = bar.add_task(f"drawing scenes ({name}, seed {draws.seed})", total=draws.samples, rate="")

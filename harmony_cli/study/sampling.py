@@ -83,7 +83,8 @@ class Sampler:
         self.spec, self.path, self.check = spec, scenario_path, check
         self.draws, self.seed = draws
         self.points = grid_points(spec)
-        self.base = load_scenario(scenario_path, spec.set)
+        self.notices: list[str] = []  # a base scenario of an older schema: its deprecation notice
+        self.base = load_scenario(scenario_path, spec.set, self.notices)
         self.base_values = self.base.model_dump(mode="json")
         for key, dist in spec.vary.items():  # every varied field exists (and a relative one is a number or vector)
             try:
