@@ -71,3 +71,17 @@ def test_a_reference_the_robot_cannot_follow_completes_with_tracking_failed_and_
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "completed" and summary["tracking"]["verdict"] == "failed"
     assert summary["tracking"]["longest_outside_s"] > TOLERANCE.duration
+
+
+def test_five_joint_arms_that_cannot_hold_the_s_s_hand_poses_complete_with_tracking_failed(tmp_path):
+    # twin_arm's 5-DOF arms and the shared base cannot keep both hands' 6-D poses along the catalogue S: the
+    # whole-body MPC settles on a trade of orientation against position (no solve fails), which the verdict reads
+    out = tmp_path / "run"
+    scene = str(SMOKE.parents[1] / "robots" / "s_shape.yaml")
+    result = CliRunner().invoke(app, ["run", scene, "--set", "robot.preset=twin_arm", "--out", str(out), "--quiet"])
+    assert result.exit_code == 1, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "completed" and summary["failed_solves"] == 0
+    assert summary["tracking"]["verdict"] == "failed"
+    assert summary["tracking_error"]["max_m"] < TOLERANCE.position  # within the position tolerance throughout:
+    assert summary["tracking_error"]["max_rot_deg"] > TOLERANCE.rotation_deg  # it is the hands' rotation that fails
