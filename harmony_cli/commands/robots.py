@@ -12,7 +12,9 @@ from harmony_cli.console import fail
 from harmony_cli.scenario import ScenarioError
 
 robots_app = typer.Typer(
-    no_args_is_help=False, invoke_without_command=True, help="Robot presets: list them, or show one (`show NAME`)."
+    no_args_is_help=False,
+    invoke_without_command=True,
+    help="Robot presets: list them, show one (`show NAME`), or check a scenario's robot (`--check FILE`).",
 )
 
 

@@ -13,6 +13,7 @@ from typing import IO, TYPE_CHECKING
 from harmony_cli.experiment.faults import Writes, write_whole
 from harmony_cli.experiment.replay_log import REPLAY, ReplayLog
 from harmony_cli.experiment.stream import STREAM, StepStream
+from harmony_cli.report.tracking import tracking_failed
 from harmony_cli.robot.urdf import hand_below
 from harmony_cli.scenario import Scenario, robot_of
 
@@ -102,5 +103,5 @@ def succeeded(summary: dict) -> bool:
     if task is not None:
         ok = bool(task.get("success"))
     else:
-        ok = summary.get("failed_solves") == 0 and summary.get("tracking", {}).get("verdict", "ok") == "ok"
+        ok = summary.get("failed_solves") == 0 and not tracking_failed(summary)
     return summary.get("status") == "completed" and ok

@@ -13,6 +13,7 @@ from rich.text import Text
 from harmony_cli.experiment.interrupts import RunInterrupted, signals_end_the_run
 from harmony_cli.experiment.run import run_scenario
 from harmony_cli.experiment.workers import end_workers, worker_pool
+from harmony_cli.report.tracking import tracking_failed
 from harmony_cli.scenario import ScenarioError, apply_overrides
 
 
@@ -82,6 +83,6 @@ def failed_runs(dirs: list[Path]) -> list[str]:
         if summary.get("status") != "completed":
             why = summary.get("reason") or summary.get("error") or ""  # interrupted runs give a reason only
             failed.append(f"{d.name} ({summary.get('status')}: {why})")
-        elif summary.get("tracking", {}).get("verdict") == "failed":
+        elif tracking_failed(summary):
             failed.append(f"{d.name} (tracking failed: {summary['tracking']['reason']})")
     return failed

@@ -6,6 +6,7 @@ from pathlib import Path
 
 from harmony_cli.report.metrics import baseline_peak
 from harmony_cli.report.summary import task_warning
+from harmony_cli.report.tracking import tracking_failed
 
 
 def fmt(v: float | None, unit: str, scale: float = 1.0, missing: str = "-", digits: int = 2) -> str:
@@ -36,7 +37,7 @@ def run_lines(run_dir: Path, summary: dict) -> list[str]:
         for name, c in task.get("min_clearance_moving_m", {}).items():
             clearances = ", ".join(f"{who} {v:.3f} m" for who, v in c.items())
             lines.append(f"moving obstacle {name}: min clearance {clearances}")
-    if summary.get("tracking", {}).get("verdict") == "failed":
+    if tracking_failed(summary):
         lines.append(f"tracking failed: {summary['tracking']['reason']}")
     lines += disturbance_lines(summary.get("task", summary))
     if "video" in summary:

@@ -9,11 +9,14 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 from enum import StrEnum
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from harmony_cli.scenario.task import TrackingTolerance
+
+if TYPE_CHECKING:
+    import pandas as pd  # the steps table; importing this module does not load pandas (`harmony run` reads it late)
 
 
 class Verdict(StrEnum):
@@ -45,6 +48,11 @@ class Tracking:
             f"for {self.longest_outside_s:.2f} s from t = {self.outside_from_s:.2f} s, longer than the "
             f"{self.duration_s:g} s the tolerance allows"
         )
+
+
+def tracking_failed(summary: dict) -> bool:
+    """Whether a summary.json's hands left the reference's tolerance (False for a run without a verdict: a task's)."""
+    return summary.get("tracking", {}).get("verdict") == Verdict.FAILED
 
 
 def tracking_verdict(steps: pd.DataFrame, hands: list[str], tolerance: TrackingTolerance, dt: float) -> Tracking:

@@ -24,7 +24,7 @@ from harmony_cli.names import closest
 from harmony_cli.robot.mimic import Mimic, mimic_joints
 from harmony_cli.robot.urdf import required
 
-HOME_TOLERANCE = 1e-9  # [rad | m] a follower's home may differ this much from its leader's coupling
+HOME_TOLERANCE = 1e-9  # [rad | m] a home value's rounding: past a limit, or off a follower's coupling, by this
 
 
 @dataclass(frozen=True)

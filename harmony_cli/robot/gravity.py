@@ -10,6 +10,7 @@ import numpy as np
 
 from harmony_cli.cache import cached_json
 from harmony_cli.capture import captured_output
+from harmony_cli.robot.urdf_form import urdfdom_reason
 
 
 def gravity_torques(urdf: Path, joint_names: tuple[str, ...], q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -33,9 +34,8 @@ def _pinocchio_gravity(urdf: Path, joint_names: tuple[str, ...], q: np.ndarray) 
             model = pin.buildModelFromUrdf(str(urdf))
         except ValueError:
             model = None
-    if model is None:  # urdfdom prints why it refuses a file; its exception says only that it does
-        reasons = [line.removeprefix("Error:").strip() for line in printed if line.startswith("Error:")]
-        raise ValueError(reasons[0] if reasons else f"{urdf.name} is not a valid URDF model")
+    if model is None:
+        raise ValueError(urdfdom_reason(printed) or f"{urdf.name} is not a valid URDF model")
     data = model.createData()
     config = pin.neutral(model)
     index = {name: model.joints[model.getJointId(name)] for name in joint_names}

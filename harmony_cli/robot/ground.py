@@ -19,6 +19,7 @@ import numpy as np
 
 from harmony_cli.cache import cached_json
 from harmony_cli.capture import captured_output
+from harmony_cli.robot.urdf_form import urdfdom_reason
 
 # A model at most this far below the ground already rests on it (the mount auto puts in rests it within this),
 # and one clear of the ground stays where its URDF places it: its root is then the floor's frame (a mobile
@@ -66,9 +67,8 @@ def _pinocchio_lowest(text: str, home: dict[str, float]) -> dict:
             model = pin.buildModelFromXML(text)
         except (ValueError, RuntimeError):
             model = None
-    if model is None:  # urdfdom prints why it refuses a file; its exception says only that it does
-        reasons = [line.removeprefix("Error:").strip() for line in printed if line.startswith("Error:")]
-        raise UnreadableUrdf(f"Pinocchio (urdfdom) cannot read it: {reasons[0] if reasons else 'not a URDF model'}")
+    if model is None:
+        raise UnreadableUrdf(f"Pinocchio (urdfdom) cannot read it: {urdfdom_reason(printed) or 'not a URDF model'}")
     try:
         with captured_output():
             geometry = pin.buildGeomFromUrdfString(model, text, pin.COLLISION)

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from harmony_cli.names import closest
-from harmony_cli.robot.active import select_joints
+from harmony_cli.robot.active import HOME_TOLERANCE, select_joints
 from harmony_cli.robot.ground import Lowest, UnreadableUrdf, resting_mount
 from harmony_cli.robot.mimic import Mimic
 from harmony_cli.robot.origin import pose_matrix
@@ -46,7 +46,6 @@ if TYPE_CHECKING:
 
 PACKAGE_SCHEME = "package://"
 PYBULLET_MAX_JOINTS = 127  # state queries fail at >= 128 links (bullet3 MAX_DEGREE_OF_FREEDOM, SharedMemoryCommands.h)
-HOME_TOLERANCE = 1e-9
 AUTO = "auto"  # a mount that rests the robot on the ground (robot/ground.py)
 Mount = tuple[list[float], list[float]]  # xyz [m], rpy [deg] of the root link on the virtual base
 

@@ -112,6 +112,13 @@ def numbers(text: str, count: int) -> bool:
     return len(parts) == count
 
 
+def urdfdom_reason(printed: list[str]) -> str | None:
+    """Why urdfdom (Pinocchio's URDF parser) refused a file, from its captured output: it prints the reason, and its
+    exception says only that it refuses (None: it printed none)."""
+    reasons = [line.removeprefix("Error:").strip() for line in printed if line.startswith("Error:")]
+    return reasons[0] if reasons else None
+
+
 @contextlib.contextmanager
 def refused_by(parser: str, urdf: str) -> Iterator[None]:
     """What `parser` raises reading the scenario's `urdf`, as a ValueError of one line (`robot.urdf: <file>: <parser>
