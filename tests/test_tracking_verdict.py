@@ -85,3 +85,65 @@ def test_five_joint_arms_that_cannot_hold_the_s_s_hand_poses_complete_with_track
     assert summary["tracking"]["verdict"] == "failed"
     assert summary["tracking_error"]["max_m"] < TOLERANCE.position  # within the position tolerance throughout:
     assert summary["tracking_error"]["max_rot_deg"] > TOLERANCE.rotation_deg  # it is the hands' rotation that fails
+
+
+def _scara_urdf(wrist_room: float) -> str:
+    """Two planar arms (shoulder, elbow, wrist: all yaw joints, 0.4 m links, a 0.1 m tool) on a torso; at home
+    (shoulder 1, elbow -2, wrist 1 rad, mirrored on the right) the hands point forward and reaching 0.3 m further
+    forward turns each wrist towards 0, through a limit `wrist_room` rad from home on that side."""
+    inertial = (
+        '<inertial><origin xyz="0 0 0" rpy="0 0 0"/><mass value="1"/>'
+        '<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>'
+    )
+
+    def joint(name, parent, child, xyz, lower=-2.5, upper=2.5, kind="revolute"):
+        moving = f'<axis xyz="0 0 1"/><limit lower="{lower}" upper="{upper}" effort="50" velocity="2"/>'
+        return (
+            f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+            f'<origin xyz="{xyz}" rpy="0 0 0"/>{moving if kind == "revolute" else ""}</joint>'
+        )
+
+    parts = [f'<robot name="scara"><link name="torso">{inertial}</link>']
+    for side, y, sign in (("l", 0.2, 1), ("r", -0.2, -1)):
+        parts += [f'<link name="{side}_{link}">{inertial}</link>' for link in ("upper", "fore", "hand")]
+        limits = (1 - wrist_room, 2.5) if sign > 0 else (-2.5, wrist_room - 1)
+        parts += [
+            joint(f"{side}_shoulder", "torso", f"{side}_upper", f"0 {y} 0.9"),
+            joint(f"{side}_elbow", f"{side}_upper", f"{side}_fore", "0.4 0 0"),
+            joint(f"{side}_wrist", f"{side}_fore", f"{side}_hand", "0.4 0 0", *limits),
+            f'<link name="{side}_tool"/>',
+            joint(f"{side}_tool_joint", f"{side}_hand", f"{side}_tool", "0.1 0 0", kind="fixed"),
+        ]
+    return "\n".join([*parts, "</robot>"])
+
+
+@pytest.mark.parametrize("wrist_room, exit_code", [(2.0, 0), (0.1, 1)], ids=["limit-far", "limit-0.1-rad-away"])
+def test_a_wrist_near_the_limit_the_s_needs_to_pass_rests_on_it_and_fails_the_run(tmp_path, wrist_room, exit_code):
+    # with the base pinned the arms are not redundant for the hands' planar poses: where the S needs a wrist past its
+    # limit, the whole-body MPC's optimum (no solve fails) holds the wrist on its bound and gives up the hands'
+    # position for their heading; the same robot with room tracks the S within the tolerance
+    (tmp_path / "scara.urdf").write_text(_scara_urdf(wrist_room))
+    one = float(np.degrees(1.0))
+    home = ", ".join(
+        f"{side}_{joint}: {value}"
+        for side, sign in (("l", 1), ("r", -1))
+        for joint, value in (("shoulder", sign * one), ("elbow", -2 * sign * one), ("wrist", sign * one))
+    )
+    scene = tmp_path / "scara.yaml"
+    scene.write_text(
+        "schema: 2\nname: scara\nrobot:\n  urdf: scara.urdf\n  end_effectors: {left: l_tool, right: r_tool}\n"
+        f"  mount: null\n  pinned_joints: [base_x, base_y, base_yaw]\n  home: {{{home}}}\n"
+        "reference: {type: s_curve, duration: 8.0, length: 0.3, lateral: 0.05, start: 0.5}\n"
+        "mpc: {transcription: bezier, horizon: 2.0, knots: 6, control_points: 6}\nsim: {duration: 9.0}\n"
+    )
+    out = tmp_path / "run"
+    result = CliRunner().invoke(app, ["run", str(scene), "--out", str(out), "--quiet"])
+    assert result.exit_code == exit_code, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["failed_solves"] == 0
+    wrist = pd.read_csv(out / "steps.csv")["q_l_wrist"].iloc[-1]
+    if exit_code:
+        assert summary["tracking"]["verdict"] == "failed"
+        assert wrist == pytest.approx(1 - wrist_room, abs=1e-3)  # resting on its limit
+    else:
+        assert summary["tracking"]["verdict"] == "ok" and wrist < 0.9  # it passed where the other limit stands
