@@ -9,24 +9,25 @@ from pathlib import Path
 import pytest
 from conftest import ROOT
 
-LOADED = (
-    "import sys, {modules}; print(sorted(m for m in sys.modules if m.split('.')[0] in ('pybullet', 'pybullet_utils')))"
-)
+ENGINES = ("pybullet", "pybullet_utils", "mujoco")
+LOADED = "import sys, {modules}; print(sorted({{m.split('.')[0] for m in sys.modules}} & set(" + repr(ENGINES) + ")))"
 
 
-def _bullet_modules_after_importing(*modules: str) -> str:
+def _engine_modules_after_importing(*modules: str) -> str:
     code = LOADED.format(modules=", ".join(modules))
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
 
 
-def test_the_whole_body_mpc_and_the_planner_load_without_pybullet():
+def test_the_whole_body_mpc_and_the_planner_load_without_a_physics_engine():
     assert (
-        _bullet_modules_after_importing(
+        _engine_modules_after_importing(
             "harmony_cli.mpc.wholebody", "harmony_cli.planning.hand_mpc", "harmony_cli.planning.planner"
         )
         == "[]"
     )
-    assert _bullet_modules_after_importing("harmony_cli.sim.simulation") != "[]"  # the check sees it when loaded
+    # the check sees each engine when it is loaded
+    assert _engine_modules_after_importing("harmony_cli.sim.bullet") == "['pybullet', 'pybullet_utils']"
+    assert _engine_modules_after_importing("mujoco") == "['mujoco']"
 
 
 @pytest.mark.skipif(

@@ -20,7 +20,7 @@ from harmony_cli.mpc import wholebody
 from harmony_cli.planning.hand_mpc import HandMPC
 from harmony_cli.planning.hand_plan import HandState, Obstacle
 from harmony_cli.scenario import ObstacleSpec, PlannerSpec, ScenarioError, WorldSpec, load_scenario
-from harmony_cli.sim.simulation import Simulation
+from harmony_cli.sim.bullet import BulletSimulation
 from harmony_cli.tasks.motion import centre_at, obstacle_predictor
 
 runner = CliRunner()
@@ -122,7 +122,7 @@ def test_the_pybullet_body_is_where_the_motion_says_and_closest_points_see_it_th
             ]
         }
     )
-    sim = Simulation(eva, load_scenario(TABLE1).sim, spec)
+    sim = BulletSimulation(eva, load_scenario(TABLE1).sim, spec)
     world, walker = sim.world, spec.obstacles[0]
     probe = sim.client.createMultiBody(
         0, sim.client.createCollisionShape(pybullet.GEOM_SPHERE, radius=1e-3), -1, [1.5, 0.0, 1.0]

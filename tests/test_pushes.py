@@ -15,7 +15,7 @@ from harmony_cli.cli import app
 from harmony_cli.report.metrics import displacement_from_twin, force_outcome, push_outcome, recovery_time
 from harmony_cli.robot.urdf import hand_below
 from harmony_cli.scenario import BoxSpec, PushSpec, SimSpec, WorldSpec, load_scenario
-from harmony_cli.sim.simulation import Simulation
+from harmony_cli.sim.bullet import BulletSimulation
 
 runner = CliRunner()
 BOX_LIFT = ROOT / "scenarios/smoke/box_lift.yaml"
@@ -91,7 +91,7 @@ def free_box_sim(eva):
         PushSpec(name="twist", body="box", point=(0.0, 0.1, 0.0), force=(1.0, 0.0, 0.0), start=0.4, duration=0.02),
     ]
     world = WorldSpec(box=BoxSpec(position=(3.0, 0.0, 2.0), mass=MASS))
-    sim = Simulation(eva, SimSpec(), world, pushes)
+    sim = BulletSimulation(eva, SimSpec(), world, pushes)
     sim.client.changeDynamics(sim.world.box, -1, linearDamping=0.0, angularDamping=0.0)
     yield sim
     sim.close()
@@ -120,7 +120,7 @@ def test_a_push_on_a_free_body_gives_the_impulse_f_t_over_m_only_inside_its_wind
 
 def test_a_push_on_a_hand_is_an_external_force_its_wrist_sensor_reads(eva):
     push = PushSpec(name="press", body="robot", link="LARM_TOOL", force=(0.0, 0.0, -20.0), start=0.0, duration=1.0)
-    sim = Simulation(eva, SimSpec(), None, [push])
+    sim = BulletSimulation(eva, SimSpec(), None, [push])
     try:
         for _ in range(25):
             sim.apply(eva.home, np.zeros(eva.n_dof))
@@ -296,7 +296,7 @@ def test_a_spring_pusher_presses_with_its_set_force_on_what_does_not_give_and_le
         box=BoxSpec(position=(3.0, 0.0, 2.0), mass=MASS),
         obstacles=[{"name": "post", "shape": "box", "position": [5, 0, 1], "size": [0.1, 0.1, 2]}],
     )
-    sim = Simulation(eva, SimSpec(), world, pushes)
+    sim = BulletSimulation(eva, SimSpec(), world, pushes)
     try:
         sim.client.changeDynamics(sim.world.box, -1, linearDamping=0.0, angularDamping=0.0)
         x0 = sim.client.getBasePositionAndOrientation(sim.world.box)[0][0]

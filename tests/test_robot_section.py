@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 from harmony_cli.cli import app
 from harmony_cli.robot.presets import available_presets
 from harmony_cli.scenario import load_scenario, robot_of
-from harmony_cli.sim.simulation import Simulation
+from harmony_cli.sim.bullet import BulletSimulation
 
 runner = CliRunner()
 TWIN = "name: x\nrobot: {preset: twin_arm%s}\nreference: {type: hold}\n"
@@ -57,7 +57,7 @@ def test_a_declared_tool_frame_sits_on_its_parent_and_carries_the_wrist_sensor(t
     hand_p, hand_r = _position(robot, "l_hand", q), _rotation(robot, "l_hand", q)
     np.testing.assert_allclose(_position(robot, "harmony_left_tool", q), hand_p + hand_r @ [0.05, 0, 0.02], atol=1e-9)
     np.testing.assert_allclose(_rotation(robot, "harmony_left_tool", q)[:, 2], hand_r @ [0, -1, 0], atol=1e-9)
-    sim = Simulation(robot, scenario.sim)  # PyBullet puts the frame where OpTaS does
+    sim = BulletSimulation(robot, scenario.sim)  # PyBullet puts the frame where OpTaS does
     try:
         np.testing.assert_allclose(sim.observe().hand_positions[0], _position(robot, "harmony_left_tool", q), atol=1e-6)
     finally:

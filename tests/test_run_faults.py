@@ -29,7 +29,7 @@ from harmony_cli.planning import hand_mpc
 from harmony_cli.planning.hand_sqp import HandSQP
 from harmony_cli.robot.presets import resolve_path
 from harmony_cli.scenario import load_scenario, robot_of
-from harmony_cli.sim.simulation import Simulation
+from harmony_cli.sim.bullet import BulletSimulation
 
 TWIN = ROOT / "scenarios" / "smoke" / "twin_arm_turn.yaml"
 DT = 0.02  # the smoke S's control period [s]
@@ -72,20 +72,20 @@ def _faulty_solver(monkeypatch, first: int, last: float, kind: str) -> None:
 
 def _after_control_step(monkeypatch, step: int, act) -> None:
     """`act(sim)` once the physics of control step `step` has run (the next observation sees it)."""
-    real = Simulation.step
+    real = BulletSimulation.step
 
-    def stepped(self: Simulation, substeps: int) -> None:
+    def stepped(self: BulletSimulation, substeps: int) -> None:
         real(self, substeps)
         if self.physics_steps == (step + 1) * substeps:
             act(self)
 
-    monkeypatch.setattr(Simulation, "step", stepped)
+    monkeypatch.setattr(BulletSimulation, "step", stepped)
 
 
 def _teleport(joint: str, by: float):
     """An `act` that moves a joint by `by` from where it is, at once (PyBullet's resetJointState)."""
 
-    def act(sim: Simulation) -> None:
+    def act(sim: BulletSimulation) -> None:
         j = sim.joints[sim.robot.index(joint)]
         sim.client.resetJointState(sim.body, j, sim.client.getJointState(sim.body, j)[0] + by)
 
@@ -132,8 +132,8 @@ def test_a_nan_solution_or_command_never_reaches_the_simulator_and_the_last_plan
 ):
     _faulty_solver(monkeypatch, 10, 14, kind)
     sent = []
-    real = Simulation.apply
-    monkeypatch.setattr(Simulation, "apply", lambda self, q, qd: (sent.append(np.r_[q, qd]), real(self, q, qd)))
+    real = BulletSimulation.apply
+    monkeypatch.setattr(BulletSimulation, "apply", lambda self, q, qd: (sent.append(np.r_[q, qd]), real(self, q, qd)))
     out = run_scenario(SMOKE, out=tmp_path / "run", progress=False)
     steps = pd.read_csv(out / "steps.csv")
     assert json.loads((out / "summary.json").read_text())["status"] == "completed"

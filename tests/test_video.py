@@ -6,7 +6,7 @@ import pybullet
 import pytest
 from pybullet_utils.bullet_client import BulletClient
 
-from harmony_cli.sim.video import VideoRecorder, frame_every
+from harmony_cli.sim.video import BulletCamera, VideoRecorder, frame_every
 
 FRAMES, WIDTH, HEIGHT = 10, 160, 120
 
@@ -34,7 +34,8 @@ def test_records_visible_frames(world, tmp_path, suffix):
     def follow():
         return np.array(client.getBasePositionAndOrientation(box)[0])
 
-    with VideoRecorder(client, tmp_path / f"run{suffix}", fps=25, size=(WIDTH, HEIGHT), follow=follow) as video:
+    camera = BulletCamera(client, (WIDTH, HEIGHT), follow)
+    with VideoRecorder(tmp_path / f"run{suffix}", camera.render, fps=25) as video:
         for _ in range(FRAMES):
             client.stepSimulation()
             video.capture()
@@ -47,10 +48,9 @@ def test_records_visible_frames(world, tmp_path, suffix):
     assert all(frame[..., :3].astype(float).var() > 0 for frame in frames)
 
 
-def test_render_is_rgb_uint8_with_the_box_in_view(world, tmp_path):
+def test_render_is_rgb_uint8_with_the_box_in_view(world):
     client, _ = world
-    with VideoRecorder(client, tmp_path / "still.gif", size=(WIDTH, HEIGHT)) as video:
-        image = video.render()
+    image = BulletCamera(client, (WIDTH, HEIGHT)).render()
     assert image.dtype == np.uint8 and image.shape == (HEIGHT, WIDTH, 3)
     red = (image[..., 0] > 150) & (image[..., 1] < 80) & (image[..., 2] < 80)
     assert red.sum() > 100  # the box, centred by the default target
@@ -59,7 +59,7 @@ def test_render_is_rgb_uint8_with_the_box_in_view(world, tmp_path):
 def test_unknown_suffix_names_path_and_choices(world, tmp_path):
     client, _ = world
     with pytest.raises(ValueError, match=r"run\.avi.*\.mp4, \.gif"):
-        VideoRecorder(client, tmp_path / "run.avi")
+        VideoRecorder(tmp_path / "run.avi", BulletCamera(client).render)
 
 
 def test_frame_every():

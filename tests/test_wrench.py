@@ -9,7 +9,7 @@ from pybullet_utils.bullet_client import BulletClient
 
 from harmony_cli.robot.urdf import wrist_sensor_joints
 from harmony_cli.scenario import load_scenario
-from harmony_cli.sim.simulation import Simulation
+from harmony_cli.sim.bullet import BulletSimulation
 from harmony_cli.sim.wrench import WristSensors
 
 SIM = load_scenario(TABLE1).sim
@@ -41,7 +41,7 @@ def _hold(sim, q, steps):
 
 @pytest.fixture
 def sim(eva):
-    simulation = Simulation(eva, SIM)
+    simulation = BulletSimulation(eva, SIM)
     yield simulation
     simulation.close()
 
@@ -59,7 +59,7 @@ def test_no_load_reads_zero_once_the_tool_is_compensated(sim, eva, posture):
 def test_no_load_reads_zero_while_the_arms_swing_and_inertia_compensation_is_what_makes_it(eva):
     readings = {}
     for inertia in (True, False):
-        sim = Simulation(eva, SIM)
+        sim = BulletSimulation(eva, SIM)
         sim.wrists.inertia = inertia
         forces = []
         for step in range(100):
@@ -185,7 +185,7 @@ def test_sensing_does_not_change_the_dynamics(eva):
     """The same commands with sensing (sensors on, read every step) and without (sensors off, bare physics)."""
     trajectories = []
     for sensing in (True, False):
-        sim = Simulation(eva, SIM)
+        sim = BulletSimulation(eva, SIM)
         for joint in sim.wrists.sensors if not sensing else []:
             sim.client.enableJointForceTorqueSensor(sim.body, joint, False)
         q, path = _posture(eva, "raised"), []

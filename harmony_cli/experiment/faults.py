@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import TypeVar
 
 from harmony_cli.mpc.problem import NoPlanToHold
-from harmony_cli.sim.simulation import Simulation, SimulatorError
+from harmony_cli.sim.engine import Simulator, simulator_errors
 
 T = TypeVar("T")
 
@@ -76,7 +76,7 @@ def write_failure(out: Path, what: str, exc: OSError) -> tuple[str, str]:
     return "write", f"could not write {what} in {out}: {exc.strerror or exc}"
 
 
-def fault_of(exc: BaseException, out: Path, rows: list[dict], sim: Simulation | None) -> tuple[str, str]:
+def fault_of(exc: BaseException, out: Path, rows: list[dict], sim: Simulator | None) -> tuple[str, str]:
     """(category, reason) of the exception that ended a run after `rows`."""
     if isinstance(exc, RunFault):
         return exc.category, exc.reason
@@ -86,7 +86,7 @@ def fault_of(exc: BaseException, out: Path, rows: list[dict], sim: Simulation | 
     text = str(exc).strip().splitlines()[-1] if str(exc).strip() else ""
     if isinstance(exc, NoPlanToHold):
         return "solver", f"{text}; stopped {stopped_at(rows)}"
-    if isinstance(exc, SimulatorError):
+    if isinstance(exc, simulator_errors()):
         lost = sim is not None and not sim.connected
         return "simulator", f"simulator {'connection lost' if lost else 'error'} ({text}); stopped {stopped_at(rows)}"
     return "error", f"{type(exc).__name__}: {text}"

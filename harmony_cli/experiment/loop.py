@@ -16,7 +16,8 @@ from harmony_cli.experiment.step_log import step_record
 from harmony_cli.mpc.knot_params import hand_rows
 from harmony_cli.mpc.wholebody import Command, WholeBodyMPC
 from harmony_cli.robot.observation import Observation
-from harmony_cli.sim.simulation import Simulation, Truth
+from harmony_cli.sim.engine import Simulator
+from harmony_cli.sim.truth import Truth
 from harmony_cli.tasks.motion import Predictor
 from harmony_cli.tasks.targets import HandTargets, References
 
@@ -26,7 +27,7 @@ FREEZE_EVERY = 50  # steps between moving what survived (the records) out of the
 
 def run_loop(
     mpc: WholeBodyMPC,
-    sim: Simulation,
+    sim: Simulator,
     references: References,
     duration: float,
     control_dt: float,

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
 
+import numpy as np
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
 from harmony_cli.console import warn
@@ -29,7 +30,7 @@ from harmony_cli.planning.planner import Planner
 from harmony_cli.planning.stance_check import unposed
 from harmony_cli.robot.model import Robot
 from harmony_cli.scenario import Scenario, robot_of, robot_warnings
-from harmony_cli.sim.simulation import Simulation
+from harmony_cli.sim.engine import Simulator, open_simulator
 from harmony_cli.sim.video import VideoRecorder, frame_every
 from harmony_cli.tasks.motion import Predictor, obstacle_predictor
 from harmony_cli.tasks.reference import HandReference, TrajectoryReferences
@@ -57,7 +58,7 @@ class Built:
 
     robot: Robot
     mpc: WholeBodyMPC
-    sim: Simulation
+    sim: Simulator
     references: References
     watch: Watch | None
     predict: Predictor | None
@@ -69,7 +70,7 @@ def build(scenario: Scenario, scenario_dir: Path) -> Built:
     base cannot pass (RunFault "impossible": a proof from geometry). A blocked stance for which the controller's
     search finds no base pose ends the run there too, as the controller's failure (RunFault "no stance")."""
     robot = robot_of(scenario, scenario_dir)
-    sim = Simulation(robot, scenario.sim, scenario.world, scenario.pushes)
+    sim = open_simulator(robot, scenario.sim, scenario.world, scenario.pushes)
     try:
         check_start(sim.penetrations())
         if (why := SceneCheck(scenario_dir).unreachable(scenario)) is not None:
@@ -199,13 +200,8 @@ def _recorder(built: Built, video: Path | None) -> VideoRecorder | None:
     if video is None:
         return None
     base = list(built.robot.base_joints[:2])
-    return VideoRecorder(
-        built.sim.client,
-        video,
-        fps=VIDEO_FPS,
-        size=VIDEO_SIZE,
-        follow=lambda: built.sim.observe().q[base].tolist() + [0.6],
-    )
+    follow = lambda: np.array([*built.sim.observe().q[base], 0.6])
+    return VideoRecorder(video, built.sim.camera(VIDEO_SIZE, follow), fps=VIDEO_FPS)
 
 
 def execute(

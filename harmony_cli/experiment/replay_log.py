@@ -14,7 +14,7 @@ import numpy as np
 
 from harmony_cli.mpc.wholebody import WholeBodyMPC
 from harmony_cli.planning.hand_plan import Plan
-from harmony_cli.sim.simulation import Truth
+from harmony_cli.sim.truth import Truth
 from harmony_cli.tasks.targets import HandTargets
 
 REPLAY = "replay.npz"

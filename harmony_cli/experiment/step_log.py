@@ -16,7 +16,7 @@ from harmony_cli.maths.rotations import rotation_error_deg
 from harmony_cli.mpc.problem import SolveResult
 from harmony_cli.mpc.wholebody import Command, WholeBodyMPC
 from harmony_cli.robot.observation import Observation
-from harmony_cli.sim.simulation import Truth
+from harmony_cli.sim.truth import Truth
 from harmony_cli.tasks.targets import HandTargets
 
 

@@ -9,7 +9,7 @@ import numpy as np
 from harmony_cli.maths.rotations import grip_shear, off_square_deg, pad_axis
 from harmony_cli.planning.planner import Planner
 from harmony_cli.robot.observation import Observation
-from harmony_cli.sim.simulation import Truth
+from harmony_cli.sim.truth import Truth
 from harmony_cli.sim.wrench import rotation_matrices
 
 DROP_AFTER = 0.1  # [s] a held box without any contact with the robot for this long: dropped

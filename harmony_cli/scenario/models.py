@@ -157,7 +157,10 @@ MAX_SUBSTEPS = 1000  # physics steps per control step: more is a unit mistake (m
 
 
 class SimSpec(Strict):
-    physics_dt: float = Field(0.004, ge=1e-4, description="PyBullet step [s]")
+    engine: Literal["pybullet", "mujoco"] = Field(
+        "pybullet", description="the physics engine: PyBullet, or MuJoCo (the `mujoco` extra); the same scene in both"
+    )
+    physics_dt: float = Field(0.004, ge=1e-4, description="physics step [s]")
     control_dt: PositiveFloat = Field(0.02, description="MPC period [s]; a whole multiple of physics_dt")
     duration: PositiveFloat = Field(26.0, description="closed-loop run length [s]")
     position_gain: float = Field(0.5, gt=0, le=1, description="PyBullet position-control gain of chest/arms/head")

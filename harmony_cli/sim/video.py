@@ -1,4 +1,5 @@
-"""Record a headless PyBullet world to an .mp4 or .gif, one TinyRenderer frame per capture()."""
+"""Record a headless simulation to an .mp4 or .gif, one frame of an engine's camera per capture(); the camera's
+placement (a 3/4 view following the base) is shared by the engines; PyBullet's camera (TinyRenderer) is here."""
 
 from __future__ import annotations
 
@@ -36,30 +37,23 @@ def _open_writer(path: Path, fps: float):
     return imageio.get_writer(path, format="pillow", mode="I", duration=1000.0 / fps, loop=0, bits=8)
 
 
-class VideoRecorder:
-    """Records a caller-owned DIRECT BulletClient (never disconnected here) to `path`, a 3/4 view."""
+class BulletCamera:
+    """A 3/4 view of a caller-owned DIRECT BulletClient (never disconnected here) by TinyRenderer, aimed at
+    `follow()` (or `target`) for each frame."""
 
     def __init__(
         self,
         client,
-        path: Path,
-        fps: float = 25.0,
         size: tuple[int, int] = (640, 480),
         follow: Callable[[], np.ndarray] | None = None,
         target: Sequence[float] = DEFAULT_TARGET,
     ):
-        self.path = Path(path)
-        if self.path.suffix.lower() not in VIDEO_SUFFIXES:
-            raise ValueError(f"cannot record video to {self.path}: suffix must be one of {', '.join(VIDEO_SUFFIXES)}")
-        self.client, self.fps, self.follow = client, fps, follow
+        self.client, self.follow = client, follow
         self.width, self.height = size
         self.target = np.asarray(target, dtype=float)
-        self.frames = 0
         self.projection = client.computeProjectionMatrixFOV(
             fov=CAMERA_FOV, aspect=self.width / self.height, nearVal=0.05, farVal=50.0
         )
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._writer = _open_writer(self.path, fps)
 
     def look_at(self) -> np.ndarray:
         """World point the camera is aimed at for the next frame."""
@@ -79,6 +73,19 @@ class VideoRecorder:
             self.width, self.height, view, self.projection, renderer=pybullet.ER_TINY_RENDERER
         )
         return np.asarray(rgba, dtype=np.uint8).reshape(self.height, self.width, 4)[..., :3]
+
+
+class VideoRecorder:
+    """Appends one frame of `render()` (an engine's camera) per capture() to `path`, .mp4 or .gif."""
+
+    def __init__(self, path: Path, render: Callable[[], np.ndarray], fps: float = 25.0):
+        self.path = Path(path)
+        if self.path.suffix.lower() not in VIDEO_SUFFIXES:
+            raise ValueError(f"cannot record video to {self.path}: suffix must be one of {', '.join(VIDEO_SUFFIXES)}")
+        self.render, self.fps = render, fps
+        self.frames = 0
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._writer = _open_writer(self.path, fps)
 
     def capture(self) -> None:
         """Render the current state and append it to the video."""

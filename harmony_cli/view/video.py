@@ -12,7 +12,7 @@ import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
 from harmony_cli.capture import captured_output
-from harmony_cli.sim.video import VideoRecorder, frame_every
+from harmony_cli.sim.video import BulletCamera, VideoRecorder, frame_every
 from harmony_cli.sim.world import World
 from harmony_cli.view.run_data import RunData
 
@@ -33,7 +33,7 @@ def render_video(run: RunData, path: Path, fps: float = FPS, size: tuple[int, in
         dt = run.control_dt
         shown = [0]  # the step being drawn: the camera follows its base
         follow = lambda: np.array([x[shown[0]], y[shown[0]], 0.6])
-        with VideoRecorder(client, path, fps=fps, size=size, follow=follow) as video:
+        with VideoRecorder(path, BulletCamera(client, size, follow).render, fps=fps) as video:
             for i in range(0, len(run.times), frame_every(dt, fps)):
                 shown[0] = i
                 for name, value in run.joints(i).items():

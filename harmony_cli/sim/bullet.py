@@ -1,8 +1,8 @@
-"""PyBullet world (own DIRECT client): the robot from the same URDF, commanded like the real one."""
+"""The PyBullet engine (own DIRECT client): the robot from the prepared URDF, commanded like the real one, in the
+scenario's world; the Simulator of sim/engine.py."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING
 
@@ -14,37 +14,19 @@ from harmony_cli.capture import captured_output
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.observation import Observation
 from harmony_cli.sim import PYBULLET_BANNER
-from harmony_cli.sim.contacts import PadContacts, pad_contacts
+from harmony_cli.sim.contacts import pad_contacts
 from harmony_cli.sim.pushes import Pushes
 from harmony_cli.sim.touches import Touches
+from harmony_cli.sim.truth import Truth
+from harmony_cli.sim.video import BulletCamera
 from harmony_cli.sim.world import BODY_FLAGS, World
 from harmony_cli.sim.wrench import WristSensors, rotation_matrices
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
+    from collections.abc import Callable, Sequence
 
     from harmony_cli.scenario.models import SimSpec
     from harmony_cli.scenario.world import PushSpec, WorldSpec
-
-
-@dataclass(frozen=True)
-class Truth:
-    """Ground truth the controllers never see, for the logs: the box, contacts, pushes, obstacles, clearances."""
-
-    box_position: np.ndarray | None  # centre [m] (None: no box)
-    box_z_axis: np.ndarray | None  # its z axis in the world (upright: ~ (0, 0, 1))
-    box_pose: np.ndarray | None  # centre and quaternion (x, y, z, w): replays draw it
-    box_touches_robot: bool
-    pad_contacts: PadContacts | None  # per hand (links below its wrist sensor): contacts with the box, their force
-    box_on_links: tuple[str, ...]  # the robot links of no hand the box touches (an arm, the chest), by name
-    push_N: dict[str, float]  # push_<name>_N, the force acting over the coming physics steps
-    obstacle_positions: dict[str, np.ndarray]  # moving obstacles' centres as PyBullet has them
-    clearance_robot_m: dict[str, float]  # per obstacle, the robot's true distance (PyBullet closest points)
-    clearance_box_m: dict[str, float]  # per obstacle, the box's
-    # per table and obstacle, the robot's deepest contact [m] (<= 0; nan: none) over the physics steps since the
-    # last command (sim/touches.py); per obstacle, the box's
-    contact_robot_m: dict[str, float]
-    contact_box_m: dict[str, float]
 
 
 IDEAL_EFFORT = 1e4  # [N m | N] motor force limit of robot.actuators: ideal
@@ -52,7 +34,7 @@ ROBOT_FRICTION = 1.0  # every robot link's lateral and spinning friction (Bullet
 SimulatorError = pybullet.error  # what every client call raises, e.g. once the physics server is gone
 
 
-class Simulation:
+class BulletSimulation:
     """Base through its virtual planar joints (velocity), every other joint by position + velocity targets."""
 
     def __init__(
@@ -233,6 +215,9 @@ class Simulation:
         if link < 0:
             return self.client.getBodyInfo(self.body)[0].decode()
         return self.client.getJointInfo(self.body, link)[12].decode()
+
+    def camera(self, size: tuple[int, int], follow: Callable[[], np.ndarray]) -> Callable[[], np.ndarray]:
+        return BulletCamera(self.client, size, follow).render
 
     def close(self) -> None:
         """Idempotent; a lost connection has nothing to close."""
