@@ -288,3 +288,35 @@ def test_a_study_over_a_base_scenario_of_the_old_schema_says_so_once_with_its_re
     printed = capsys.readouterr()
     warned = [line for line in (printed.out + printed.err).splitlines() if "robot.home_deg -> robot.home" in line]
     assert len(warned) == 1 and warned[0].startswith("warning:")
+
+
+def test_the_report_lists_the_draws_two_grid_points_disagree_on_with_each_reason(tmp_path):
+    outcomes = {  # sample -> (pybullet, mujoco)
+        0: ("success", "success"),
+        1: ("dropped", "success"),
+        2: ("success", "stalled"),
+        3: ("dropped", "dropped"),
+        4: ("impossible", "impossible"),
+        5: ("success", "interrupted"),
+    }
+    rows = [
+        {
+            "point": f"sim.engine={engine}",
+            "sample": sample,
+            "success": None if outcome == "interrupted" else outcome == "success",
+            "outcome": outcome,
+            "reason": None if outcome == "success" else f"{engine} says {outcome}",
+            "resamples": 0,
+            "rejected": "[]",
+            "run_dir": str(tmp_path / f"runs/s{sample}-{engine}"),
+        }
+        for sample, pair in outcomes.items()
+        for engine, outcome in zip(("pybullet", "mujoco"), pair)
+    ]
+    pd.DataFrame(rows).to_parquet(tmp_path / TABLE)
+    write_report(tmp_path)
+    report = (tmp_path / "report.md").read_text()
+    # samples 0-3 have a result in both engines (4 was refused, 5 was cut off in one); 1 and 2 disagree
+    assert "## Draws the grid points disagree on (2 of 4)" in report, report
+    assert "| 1 | dropped | success | sim.engine=pybullet: pybullet says dropped |" in report
+    assert "| 2 | success | stalled | sim.engine=mujoco: mujoco says stalled |" in report

@@ -18,6 +18,7 @@ import yaml
 from scipy.stats import binomtest
 
 from harmony_cli.report.figure import plt, save
+from harmony_cli.study.disagreement import disagreement_lines
 from harmony_cli.study.draw_map import draw_map
 from harmony_cli.study.table import IMPOSSIBLE, SUCCESS, SUCCESS_LATE, TABLE
 
@@ -151,6 +152,7 @@ def write_report(study: Path) -> list[Path]:
     ]
     counts = table.groupby(["point", "outcome"], sort=False).size().unstack(fill_value=0)
     lines += ["", "## Outcomes by category", "", _markdown(counts.reset_index())]
+    lines += disagreement_lines(table)
     lines += ["", "## Run metrics (median / p95 / max over runs with a value)", ""]
     lines += ["| metric | grid point | runs | median | p95 | max |", "|---|---|---:|---:|---:|---:|"]
     for column, what, scale, unit in METRICS:
