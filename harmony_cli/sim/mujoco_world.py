@@ -27,13 +27,15 @@ import mujoco
 import numpy as np
 
 from harmony_cli.maths.shapes import table_legs
+from harmony_cli.sim.mujoco_contacts import mujoco_pad_contacts
 from harmony_cli.tasks.motion import centre_at
 
 if TYPE_CHECKING:
-    from collections.abc import Iterable
+    from collections.abc import Iterable, Sequence
 
     from harmony_cli.scenario.models import SimSpec
     from harmony_cli.scenario.world import BoxSpec, ObstacleSpec, TableSpec, WorldSpec
+    from harmony_cli.sim.contacts import PadContacts
 
 FAR = 5.0  # [m] clearances beyond this are reported as FAR (as sim/world.py)
 IMPRATIO = 10.0  # frictional over normal impedance: a held box does not creep out of the pads
@@ -215,6 +217,13 @@ class MujocoWorld:
             )
             for name, geoms in self.obstacle_geoms.items()
         }
+
+    def pad_contacts(
+        self, tool_bodies_per_hand: Sequence[set[int]], robot_bodies: set[int], friction: float
+    ) -> PadContacts:
+        """The box's contacts with each hand's pads (tool bodies) and with the robot's other bodies, as
+        sim/contacts.PadContacts (other_links: MuJoCo body ids); `friction`: the pad-box coefficient."""
+        return mujoco_pad_contacts(self, tool_bodies_per_hand, robot_bodies, friction)
 
 
 def _geoms_of(model: mujoco.MjModel, bodies: set[int]) -> list[int]:
