@@ -17,7 +17,8 @@ Contact parameters, chosen once for every scene (`contact_options`, `pad_contact
 - Compliant pads (sim.pad_stiffness K [N/m], pad_damping D [N s/m]): MuJoCo's direct solref (-k, -b) is a spring
   per unit of the contact's effective mass, scaled by the impedance d: with solimp d constant (dmin = dmax = d)
   one contact of effective mass m behaves as K = m k / (1 - d) and D = m b / (1 - d) (checked with a ball resting
-  on a plane). The pads press the box: m is the box's mass, so solref = (-K (1 - d) / m, -D (1 - d) / m)."""
+  on a plane). The pads press the box: m is the box's mass, so solref = (-K (1 - d) / m, -D (1 - d) / m). Each
+  contact point is such a spring, as with PyBullet's contactStiffness: a pad's face on the box's face makes 4."""
 
 from __future__ import annotations
 
