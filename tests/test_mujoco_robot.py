@@ -3,6 +3,8 @@ like PyBullet's motors, and its wrist sensors read an external load as sim/wrenc
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 from conftest import ROOT
@@ -12,6 +14,8 @@ from harmony_cli.scenario import load_scenario, robot_of
 
 mujoco = pytest.importorskip("mujoco")
 from harmony_cli.sim.mujoco_robot import MujocoRobot, robot_spec  # noqa: E402
+from harmony_cli.sim.simulation import Simulation  # noqa: E402
+from harmony_cli.sim.wrench import rotation_matrices  # noqa: E402
 
 PAPER = ROOT / "scenarios/paper/pick_and_carry.yaml"
 S_SHAPE = ROOT / "scenarios/robots/s_shape.yaml"
@@ -24,9 +28,10 @@ def eva():
     return robot_of(load_scenario(PAPER), PAPER.parent)
 
 
-@pytest.fixture(scope="module")
-def twin_arm():
-    return robot_of(load_scenario(S_SHAPE, ["robot.preset=twin_arm"]), S_SHAPE.parent)
+@functools.cache
+def _catalogue(preset: str):
+    """A catalogue robot: twin_arm of primitives; pr2 (STL meshes), tiago_dual and baxter (STL and COLLADA)."""
+    return robot_of(load_scenario(S_SHAPE, [f"robot.preset={preset}"]), S_SHAPE.parent)
 
 
 def _bound(robot, spec=None) -> MujocoRobot:
@@ -53,9 +58,9 @@ def _assert_hands_match(sim: MujocoRobot, robot, q: np.ndarray) -> None:
         assert angle < 1e-3
 
 
-@pytest.mark.parametrize("name", ["eva", "twin_arm"])
-def test_hand_frames_are_optas_s_at_home_and_at_random_joint_vectors(request, name, rng):
-    robot = request.getfixturevalue(name)
+@pytest.mark.parametrize("name", ["eva", "twin_arm", "pr2", "tiago_dual", "baxter"])
+def test_hand_frames_are_optas_s_at_home_and_at_random_joint_vectors(eva, name, rng):
+    robot = eva if name == "eva" else _catalogue(name)
     sim = _bound(robot)
     for q in [robot.home] + [_random_q(robot, rng) for _ in range(5)]:
         _assert_hands_match(sim, robot, q)
@@ -67,6 +72,32 @@ def test_hand_frames_are_optas_s_with_a_mimic_wrist_on_the_chain(tmp_path, rng):
     sim = _bound(robot)
     for q in [robot.home] + [_random_q(robot, rng) for _ in range(3)]:
         _assert_hands_match(sim, robot, q)
+
+
+def test_a_converted_collada_mesh_lies_where_pybullet_s_own_loader_puts_it():
+    robot = _catalogue("baxter")
+    sim, bullet = _bound(robot), Simulation(robot, SIM)
+    links = {
+        bullet.client.getJointInfo(bullet.body, i)[12].decode(): i
+        for i in range(bullet.client.getNumJoints(bullet.body))
+    }
+    model, data = sim.model, sim.data
+    for link in ("torso", "pedestal"):  # their collision meshes are .DAE files
+        geom = next(
+            g
+            for g in range(model.ngeom)
+            if model.geom_bodyid[g] == model.body(link).id and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH
+        )
+        mesh = model.geom_dataid[geom]
+        start = model.mesh_vertadr[mesh]
+        vertices = model.mesh_vert[start : start + model.mesh_vertnum[mesh]] @ data.geom_xmat[geom].reshape(3, 3).T
+        ours = data.geom_xpos[geom] + vertices
+        state = bullet.client.getLinkState(bullet.body, links[link], computeForwardKinematics=True)
+        _, theirs = bullet.client.getMeshData(bullet.body, links[link])  # in the link's inertial frame
+        theirs = np.array(state[0]) + np.array(theirs) @ rotation_matrices([state[1]])[0].T
+        assert np.abs(ours.min(axis=0) - theirs.min(axis=0)).max() < 1e-3
+        assert np.abs(ours.max(axis=0) - theirs.max(axis=0)).max() < 1e-3
+    bullet.close()
 
 
 def test_eva_holds_home_under_gravity_for_two_seconds(eva):

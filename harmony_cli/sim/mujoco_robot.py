@@ -4,7 +4,8 @@
 The model. MuJoCo's own URDF compiler reads `robot.urdf` (the prepared copy: virtual planar base joints above the
 root, locked joints already fixed, mesh paths absolute), told by an injected <mujoco><compiler/> element to keep
 fixed links as bodies (the grasp frames and the wrist sensors' child links must exist), to balance inertias that
-violate the triangle inequality (MuJoCo refuses them, PyBullet does not) and to discard visuals. The robot's
+violate the triangle inequality (MuJoCo refuses them, PyBullet does not) and to discard visuals; .dae meshes, which
+MuJoCo cannot read, are converted once and cached (sim/mujoco_meshes.py). The robot's
 geoms collide with the world but not with each other, as in PyBullet, which loads the robot without
 URDF_USE_SELF_COLLISION. Mimic followers are tied to their leaders by joint equalities (value = multiplier *
 leader + offset).
@@ -34,7 +35,6 @@ equalities and applied forces, as a real sensor does.
 
 from __future__ import annotations
 
-import re
 import xml.etree.ElementTree as ET
 from typing import TYPE_CHECKING
 
@@ -42,6 +42,7 @@ import mujoco
 import numpy as np
 
 from harmony_cli.robot.urdf import required
+from harmony_cli.sim.mujoco_meshes import mujoco_urdf
 from harmony_cli.sim.simulation import IDEAL_EFFORT
 
 if TYPE_CHECKING:
@@ -62,8 +63,7 @@ def robot_spec(robot: Robot, sim_spec: SimSpec) -> mujoco.MjSpec:
     """The robot as a MuJoCo spec: joints, hand and wrist sites, wrist sensors, servos with their gains, mimic
     equalities; timestep sim_spec.physics_dt, implicitfast. Add a world to it, compile, bind a MujocoRobot."""
     urdf = ET.parse(robot.urdf).getroot()
-    text = re.sub(r"(<robot\b[^>]*>)", r"\1" + COMPILER, robot.urdf.read_text(), count=1)
-    spec = mujoco.MjSpec.from_string(text)
+    spec = mujoco.MjSpec.from_string(mujoco_urdf(robot.urdf, COMPILER))
     spec.option.timestep = sim_spec.physics_dt
     spec.option.gravity = GRAVITY
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
