@@ -1,0 +1,267 @@
+"""The robot in MuJoCo: its model from the prepared URDF (robot_spec), commanded and read like PyBullet's
+(MujocoRobot).
+
+The model. MuJoCo's own URDF compiler reads `robot.urdf` (the prepared copy: virtual planar base joints above the
+root, locked joints already fixed, mesh paths absolute), told by an injected <mujoco><compiler/> element to keep
+fixed links as bodies (the grasp frames and the wrist sensors' child links must exist), to balance inertias that
+violate the triangle inequality (MuJoCo refuses them, PyBullet does not) and to discard visuals; .dae meshes, which
+MuJoCo cannot read, are converted once and cached (sim/mujoco_meshes.py). The robot's
+geoms collide with the world but not with each other, as in PyBullet, which loads the robot without
+URDF_USE_SELF_COLLISION. Mimic followers are tied to their leaders by joint equalities (value = multiplier *
+leader + offset).
+
+The motors. Base joints: a velocity servo, force = kv (qd_t - qd), clamped at the URDF effort. Every other joint:
+one general actuator with force = ctrl - kp q - kv qd, ctrl = kp q_t + kv qd_t, that is kp (q_t - q) +
+kv (qd_t - qd), clamped at the URDF effort (IDEAL_EFFORT for actuators: ideal). Gravity is compensated through the
+actuators (body gravcomp 1, joint actgravcomp): MuJoCo adds each joint's gravity torque to its actuator force and
+clamps the sum at the joint's actuator force range (the effort), so a servo holds home without a steady error and a
+joint whose effort cannot carry its arm sags, as a real motor would. The compensation acts through the joints only,
+so the wrist sensors still carry the tool's weight (a real sensor does).
+
+The gains: one rule for every robot and scene. Each joint is a critically damped servo of bandwidth
+BANDWIDTH for its own inertia at home, M_ii from mj_fullM: kp = M_ii w^2, kv = 2 M_ii w (a base joint, first
+order: kv = M_ii w). Why: the same step response on every joint whatever its size, and w chosen so the servos are
+stiff next to the MPC's 50 Hz commands yet stable at PyBullet's 4 ms step (w dt = 0.24; the damping terms are
+integrated implicitly by implicitfast). The velocity target is fed forward, so a smooth ramp is followed without a
+steady lag.
+
+The wrist sensors: a MuJoCo force and torque sensor at a site on each sensor joint's child body reads the support
+the wrist gives the tool (the bodies below the sensor). The tool's gravity and inertia are compensated with
+MuJoCo's own accelerations of those bodies (mj_objectAcceleration, gravity included), so the reading is the
+external wrench the environment applies to the tool, in the grasp frame, torque about the grasp origin: what
+sim/wrench.py reads in PyBullet. Why the sensor and not the contact forces on the tool: it also sees welds,
+equalities and applied forces, as a real sensor does.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+
+from harmony_cli.robot.urdf import required
+from harmony_cli.sim.mujoco_meshes import mujoco_urdf
+from harmony_cli.sim.simulation import IDEAL_EFFORT
+
+if TYPE_CHECKING:
+    from harmony_cli.robot.model import Robot
+    from harmony_cli.scenario.models import SimSpec
+
+BANDWIDTH = 60.0  # [rad/s] every servo's bandwidth (module docstring)
+GRAVITY = (0.0, 0.0, -9.81)
+HAND_SITE = "harmony_hand_{}"  # a site at each hand frame (end-effector link origin)
+WRIST_SITE = "harmony_wrist_{}"  # a site at each wrist sensor joint's child body origin
+COMPILER = (
+    '<mujoco><compiler fusestatic="false" balanceinertia="true" discardvisual="true" strippath="false"/></mujoco>'
+)
+ROBOT_CONTYPE, ROBOT_CONAFFINITY = 2, 1  # robot geoms touch the world's (1, 1) but not each other
+
+
+def robot_spec(robot: Robot, sim_spec: SimSpec) -> mujoco.MjSpec:
+    """The robot as a MuJoCo spec: joints, hand and wrist sites, wrist sensors, servos with their gains, mimic
+    equalities; timestep sim_spec.physics_dt, implicitfast. Add a world to it, compile, bind a MujocoRobot."""
+    urdf = ET.parse(robot.urdf).getroot()
+    spec = mujoco.MjSpec.from_string(mujoco_urdf(robot.urdf, COMPILER))
+    spec.option.timestep = sim_spec.physics_dt
+    spec.option.gravity = GRAVITY
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    for body in spec.bodies:
+        if body.name != "world":
+            body.gravcomp = 1.0
+    for geom in spec.geoms:
+        geom.contype, geom.conaffinity = ROBOT_CONTYPE, ROBOT_CONAFFINITY
+    for h, link in enumerate(robot.end_effectors):
+        spec.body(link).add_site(name=HAND_SITE.format(h))
+    for h, link in enumerate(_sensor_children(urdf, robot.wrist_sensors)):
+        spec.body(link).add_site(name=WRIST_SITE.format(h))
+        spec.add_sensor(
+            type=mujoco.mjtSensor.mjSENS_FORCE,
+            objtype=mujoco.mjtObj.mjOBJ_SITE,
+            objname=WRIST_SITE.format(h),
+            name=f"{WRIST_SITE.format(h)}_force",
+        )
+        spec.add_sensor(
+            type=mujoco.mjtSensor.mjSENS_TORQUE,
+            objtype=mujoco.mjtObj.mjOBJ_SITE,
+            objname=WRIST_SITE.format(h),
+            name=f"{WRIST_SITE.format(h)}_torque",
+        )
+    for coupling in robot.couplings:
+        spec.add_equality(
+            type=mujoco.mjtEq.mjEQ_JOINT,
+            name1=robot.joint_names[coupling.follower],
+            name2=robot.joint_names[coupling.leader],
+            data=np.r_[coupling.offset, coupling.multiplier, np.zeros(mujoco.mjNEQDATA - 2)],
+        )
+    _add_servos(spec, robot, _home_inertias(spec, robot))
+    return spec
+
+
+def _sensor_children(urdf: ET.Element, sensors: tuple[str, ...]) -> list[str]:
+    """The child link of each wrist sensor joint."""
+    child = {
+        required(j, "name", "joint"): required(j.find("child"), "link", "joint child") for j in urdf.findall("joint")
+    }
+    return [child[joint] for joint in sensors]
+
+
+def efforts(robot: Robot) -> np.ndarray:
+    """Per joint, the motor's force limit: the URDF's effort, IDEAL_EFFORT off the base for actuators: ideal."""
+    effort = np.array(robot.effort, dtype=float)
+    if robot.actuators == "ideal":
+        effort[[i for i in range(robot.n_dof) if i not in robot.base_joints]] = IDEAL_EFFORT
+    return effort
+
+
+def _home_inertias(spec: mujoco.MjSpec, robot: Robot) -> np.ndarray:
+    """Per joint, its diagonal of the joint-space inertia matrix at home (the spec compiled as it is)."""
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    dofs = [model.jnt_dofadr[model.joint(name).id] for name in robot.joint_names]
+    data.qpos[[model.jnt_qposadr[model.joint(name).id] for name in robot.joint_names]] = robot.home
+    mujoco.mj_forward(model, data)
+    inertia = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, data, inertia)
+    return inertia[dofs, dofs]
+
+
+def _add_servos(spec: mujoco.MjSpec, robot: Robot, inertia: np.ndarray) -> None:
+    """A velocity servo per base joint, a position + velocity servo per other joint (module docstring)."""
+    effort = efforts(robot)
+    for i, name in enumerate(robot.joint_names):
+        joint = spec.joint(name)
+        joint.actfrclimited = True
+        joint.actfrcrange = [-effort[i], effort[i]]
+        joint.actgravcomp = True
+        actuator = spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        actuator.forcelimited = True
+        actuator.forcerange = [-effort[i], effort[i]]
+        actuator.ctrllimited = False
+        actuator.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+        actuator.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+        if i in robot.base_joints:
+            kv = inertia[i] * BANDWIDTH
+            actuator.gainprm[0], actuator.biasprm[:3] = kv, [0.0, 0.0, -kv]
+        else:
+            kp, kv = inertia[i] * BANDWIDTH**2, 2 * inertia[i] * BANDWIDTH
+            actuator.gainprm[0], actuator.biasprm[:3] = 1.0, [0.0, -kp, -kv]
+
+
+class MujocoRobot:
+    """The robot of a compiled robot_spec (a world possibly added): ids bound by name. Readings are of `data` as
+    mj_forward leaves it (`step` ends with one), joint vectors in robot.joint_names order."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, robot: Robot, sim_spec: SimSpec):
+        self.model, self.data, self.robot, self.spec = model, data, robot, sim_spec
+        joints = [model.joint(name).id for name in robot.joint_names]
+        self.qpos = model.jnt_qposadr[joints]
+        self.dofs = model.jnt_dofadr[joints]
+        self.actuators = np.array([model.actuator(name).id for name in robot.joint_names])
+        self.base = list(robot.base_joints)
+        self.others = [i for i in range(robot.n_dof) if i not in robot.base_joints]
+        self.kp = -model.actuator_biasprm[self.actuators, 1]
+        self.kv = -model.actuator_biasprm[self.actuators, 2]
+        hands = range(len(robot.end_effectors))
+        self.hand_sites = [model.site(HAND_SITE.format(h)).id for h in hands]
+        self.wrist_sites = [model.site(WRIST_SITE.format(h)).id for h in hands]
+        self.sensor_rows = [
+            (
+                model.sensor_adr[model.sensor(f"{WRIST_SITE.format(h)}_force").id],
+                model.sensor_adr[model.sensor(f"{WRIST_SITE.format(h)}_torque").id],
+            )
+            for h in hands
+        ]
+        root = model.body_rootid[model.jnt_bodyid[joints[0]]]
+        self.body_ids = {b for b in range(model.nbody) if b and model.body_rootid[b] == root}
+        self.tool_bodies = [self._subtree(model.site_bodyid[site]) for site in self.wrist_sites]
+
+    def _subtree(self, top: int) -> list[int]:
+        """`top` and the bodies below it, parents before children."""
+        below = [top]
+        for b in range(top + 1, self.model.nbody):
+            if self.model.body_parentid[b] in below:
+                below.append(b)
+        return below
+
+    def link_name(self, body_id: int) -> str:
+        return self.model.body(body_id).name
+
+    def reset_home(self) -> None:
+        """Every joint at home, at rest, the servos holding it."""
+        mujoco.mj_resetData(self.model, self.data)
+        self.data.qpos[self.qpos] = self.robot.home
+        self.apply(self.robot.home, np.zeros(self.robot.n_dof))
+        mujoco.mj_forward(self.model, self.data)
+
+    def step(self, substeps: int) -> None:
+        """`substeps` physics steps under the last command, then mj_forward: every reading is of the new state."""
+        for _ in range(substeps):
+            mujoco.mj_step(self.model, self.data)
+        mujoco.mj_forward(self.model, self.data)
+
+    def q(self) -> np.ndarray:
+        return self.data.qpos[self.qpos].copy()
+
+    def qd(self) -> np.ndarray:
+        return self.data.qvel[self.dofs].copy()
+
+    def apply(self, q_target: np.ndarray, qd_target: np.ndarray) -> None:
+        """Base joints: velocity targets; the others: position + velocity targets."""
+        ctrl = self.data.ctrl
+        ctrl[self.actuators[self.base]] = qd_target[self.base]
+        others = self.others
+        ctrl[self.actuators[others]] = self.kp[others] * q_target[others] + self.kv[others] * qd_target[others]
+
+    def hands(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The hand frames: positions (hands, 3), rotations (hands, 3, 3), linear velocities (hands, 3) and yaw
+        rates (hands,), in the world."""
+        data, velocity = self.data, np.zeros(6)
+        linear, yaw_rates = [], []
+        for site in self.hand_sites:
+            mujoco.mj_objectVelocity(self.model, data, mujoco.mjtObj.mjOBJ_SITE, site, velocity, 0)
+            linear.append(velocity[3:].copy())
+            yaw_rates.append(velocity[2])
+        positions = data.site_xpos[self.hand_sites].copy()
+        return (
+            positions,
+            data.site_xmat[self.hand_sites].reshape(-1, 3, 3).copy(),
+            np.array(linear),
+            np.array(yaw_rates),
+        )
+
+    def wrenches(self) -> np.ndarray:
+        """(hands, 6): the external force [N] and torque about the grasp origin [N m] the environment applies to each
+        hand's tool, in the grasp frame (sim/wrench.py's frame and signs)."""
+        out = np.zeros((len(self.hand_sites), 6))
+        for h, (hand, wrist) in enumerate(zip(self.hand_sites, self.wrist_sites)):
+            origin, rotation = self.data.site_xpos[hand], self.data.site_xmat[hand].reshape(3, 3)
+            force, torque = self._tool_momentum_rate(h, origin)
+            support, support_torque = self._support(h, wrist, origin)
+            out[h, :3], out[h, 3:] = rotation.T @ (force - support), rotation.T @ (torque - support_torque)
+        return out
+
+    def _support(self, hand: int, wrist: int, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The force and torque about `origin` the wrist applies to the tool, in the world (the sensor's reading)."""
+        rotation = self.data.site_xmat[wrist].reshape(3, 3)
+        force_row, torque_row = self.sensor_rows[hand]
+        force = rotation @ self.data.sensordata[force_row : force_row + 3]
+        torque = rotation @ self.data.sensordata[torque_row : torque_row + 3]
+        return force, torque + np.cross(self.data.site_xpos[wrist] - origin, force)
+
+    def _tool_momentum_rate(self, hand: int, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The rate of change of the tool's momentum less its weight: force and torque about `origin`, world."""
+        model, data, acceleration, velocity = self.model, self.data, np.zeros(6), np.zeros(6)
+        force, torque = np.zeros(3), np.zeros(3)
+        for body in self.tool_bodies[hand]:
+            mujoco.mj_objectAcceleration(model, data, mujoco.mjtObj.mjOBJ_BODY, body, acceleration, 0)
+            mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, body, velocity, 0)
+            rotation = data.ximat[body].reshape(3, 3)
+            inertia = rotation @ np.diag(model.body_inertia[body]) @ rotation.T
+            spin = velocity[:3]
+            linear = model.body_mass[body] * acceleration[3:]  # the acceleration has gravity's -g in it
+            force += linear
+            torque += inertia @ acceleration[:3] + np.cross(spin, inertia @ spin)
+            torque += np.cross(data.xipos[body] - origin, linear)
+        return force, torque
