@@ -13,8 +13,8 @@ from test_joint_chains import _robot
 from harmony_cli.scenario import load_scenario, robot_of
 
 mujoco = pytest.importorskip("mujoco")
+from harmony_cli.sim.bullet import BulletSimulation  # noqa: E402
 from harmony_cli.sim.mujoco_robot import MujocoRobot, robot_spec  # noqa: E402
-from harmony_cli.sim.simulation import Simulation  # noqa: E402
 from harmony_cli.sim.wrench import rotation_matrices  # noqa: E402
 
 PAPER = ROOT / "scenarios/paper/pick_and_carry.yaml"
@@ -76,7 +76,7 @@ def test_hand_frames_are_optas_s_with_a_mimic_wrist_on_the_chain(tmp_path, rng):
 
 def test_a_converted_collada_mesh_lies_where_pybullet_s_own_loader_puts_it():
     robot = _catalogue("baxter")
-    sim, bullet = _bound(robot), Simulation(robot, SIM)
+    sim, bullet = _bound(robot), BulletSimulation(robot, SIM)
     links = {
         bullet.client.getJointInfo(bullet.body, i)[12].decode(): i
         for i in range(bullet.client.getNumJoints(bullet.body))

@@ -202,3 +202,17 @@ def test_two_pads_squeezing_the_box_hold_it_by_friction():
     weight_share = world.box.mass * 9.81 / 2
     assert contacts.friction_used == pytest.approx(weight_share / (world.box.friction * contacts.normal_N), rel=0.05)
     assert np.all(contacts.normal_off_face_deg < 1.0)
+
+
+def test_a_box_pushed_along_a_table_slides_against_the_product_of_the_two_frictions_as_in_pybullet():
+    world = _table_and_box(TOP + BOX / 2)
+    box, table = world.box, world.tables[0]
+    w = _scene(world)
+    _step(w, 0.5)  # settled
+    force = 6.0  # [N] along x, above the friction's 0.48 m g = 3.8 N
+    w.data.xfrc_applied[w.box, 0] = force
+    x0 = w.box_pose()[0][0]
+    _step(w, 0.4)
+    travelled = w.box_pose()[0][0] - x0
+    expected = 0.5 * (force / box.mass - box.friction * table.friction * 9.81) * 0.4**2
+    assert travelled == pytest.approx(expected, rel=0.05)

@@ -15,6 +15,7 @@ from harmony_cli.robot.model import Robot
 from harmony_cli.robot.observation import Observation
 from harmony_cli.sim import PYBULLET_BANNER
 from harmony_cli.sim.contacts import pad_contacts
+from harmony_cli.sim.motors import efforts
 from harmony_cli.sim.pushes import Pushes
 from harmony_cli.sim.touches import Touches
 from harmony_cli.sim.truth import Truth
@@ -29,7 +30,6 @@ if TYPE_CHECKING:
     from harmony_cli.scenario.world import PushSpec, WorldSpec
 
 
-IDEAL_EFFORT = 1e4  # [N m | N] motor force limit of robot.actuators: ideal
 ROBOT_FRICTION = 1.0  # every robot link's lateral and spinning friction (Bullet multiplies the two bodies' values)
 SimulatorError = pybullet.error  # what every client call raises, e.g. once the physics server is gone
 
@@ -58,9 +58,7 @@ class BulletSimulation:
             if info[12].decode() in robot.end_effectors:
                 by_name[info[12].decode()] = i  # link index == index of its parent joint
         self.joints = [by_name[j] for j in robot.joint_names]
-        self.effort = np.array([self.client.getJointInfo(self.body, j)[10] for j in self.joints])
-        if robot.actuators == "ideal":
-            self.effort[[i for i in range(robot.n_dof) if i not in robot.base_joints]] = IDEAL_EFFORT
+        self.effort = efforts(robot)
         self.hand_links = [by_name[link] for link in robot.end_effectors]
         self.base = list(robot.base_joints)
         self.others = [i for i in range(robot.n_dof) if i not in robot.base_joints]

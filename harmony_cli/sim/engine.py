@@ -69,7 +69,9 @@ def open_simulator(
 ) -> Simulator:
     """The engine sim_spec.engine names, with the robot at home in the world."""
     if sim_spec.engine == "mujoco":
-        raise NotImplementedError("sim.engine: mujoco is being built (issue 44)")
+        from harmony_cli.sim.mujoco_sim import MujocoSimulation  # MuJoCo loads only when a scenario asks for it
+
+        return MujocoSimulation(robot, sim_spec, world, pushes)
     from harmony_cli.sim.bullet import BulletSimulation
 
     return BulletSimulation(robot, sim_spec, world, pushes)

@@ -10,20 +10,23 @@ geoms collide with the world but not with each other, as in PyBullet, which load
 URDF_USE_SELF_COLLISION. Mimic followers are tied to their leaders by joint equalities (value = multiplier *
 leader + offset).
 
-The motors. Base joints: a velocity servo, force = kv (qd_t - qd), clamped at the URDF effort. Every other joint:
-one general actuator with force = ctrl - kp q - kv qd, ctrl = kp q_t + kv qd_t, that is kp (q_t - q) +
-kv (qd_t - qd), clamped at the URDF effort (IDEAL_EFFORT for actuators: ideal). Gravity is compensated through the
-actuators (body gravcomp 1, joint actgravcomp): MuJoCo adds each joint's gravity torque to its actuator force and
-clamps the sum at the joint's actuator force range (the effort), so a servo holds home without a steady error and a
-joint whose effort cannot carry its arm sags, as a real motor would. The compensation acts through the joints only,
-so the wrist sensors still carry the tool's weight (a real sensor does).
+The motors. Base joints: a velocity servo, force = kv (qd_t - qd). Every other joint: a position + velocity servo,
+force = kp (q_t - q) + kv (qd_t - qd), one affine actuator (ctrl = kp q_t + kv qd_t). Both are clamped at the URDF
+effort (IDEAL_EFFORT for actuators: ideal). Gravity is compensated through the actuators (body gravcomp 1, joint
+actgravcomp): MuJoCo adds each joint's gravity torque to its actuator force and clamps the sum at the joint's
+actuator force range (the effort), so a servo holds home without a steady error and a joint whose effort cannot
+carry its arm sags, as a real motor would. The compensation acts through the joints only, so the wrist sensors
+still carry the tool's weight (a real sensor does).
 
-The gains: one rule for every robot and scene. Each joint is a critically damped servo of bandwidth
-BANDWIDTH for its own inertia at home, M_ii from mj_fullM: kp = M_ii w^2, kv = 2 M_ii w (a base joint, first
-order: kv = M_ii w). Why: the same step response on every joint whatever its size, and w chosen so the servos are
-stiff next to the MPC's 50 Hz commands yet stable at PyBullet's 4 ms step (w dt = 0.24; the damping terms are
-integrated implicitly by implicitfast). The velocity target is fed forward, so a smooth ramp is followed without a
-steady lag.
+The gains: one rule for every robot and scene. Stiffness from the motor: kp = effort / FULL_EFFORT_ERROR, so a
+motor gives its full effort a small angle off its target whatever the inertia behind it (PyBullet's motors are
+velocity constraints, stiff up to their effort; a gain scaled by the link's inertia left a light wrist so soft that
+the millimetres of the force loop's squeeze were lost in its give). Each servo is critically damped and its natural
+frequency is BANDWIDTH_STEPS / physics_dt: where the link's own inertia is too light for that, the motor's reflected
+rotor inertia (joint armature, which real geared motors have and URDFs leave out) makes up the difference. Why: an
+explicit spring stiffer than the step allows, or a clamped servo on a light link (its full effort changing the
+joint's velocity by tens of rad/s in one step), rings or diverges. The base: a velocity servo of the same
+bandwidth for its inertia at home. The damping terms are integrated implicitly (implicitfast).
 
 The wrist sensors: a MuJoCo force and torque sensor at a site on each sensor joint's child body reads the support
 the wrist gives the tool (the bodies below the sensor). The tool's gravity and inertia are compensated with
@@ -42,14 +45,15 @@ import mujoco
 import numpy as np
 
 from harmony_cli.robot.urdf import required
+from harmony_cli.sim.motors import efforts
 from harmony_cli.sim.mujoco_meshes import mujoco_urdf
-from harmony_cli.sim.simulation import IDEAL_EFFORT
 
 if TYPE_CHECKING:
     from harmony_cli.robot.model import Robot
     from harmony_cli.scenario.models import SimSpec
 
-BANDWIDTH = 60.0  # [rad/s] every servo's bandwidth (module docstring)
+FULL_EFFORT_ERROR = 0.002  # [rad | m] the position error at which a joint's motor gives its full effort
+BANDWIDTH_STEPS = 0.3  # every servo's natural frequency times the physics step (module docstring)
 GRAVITY = (0.0, 0.0, -9.81)
 HAND_SITE = "harmony_hand_{}"  # a site at each hand frame (end-effector link origin)
 WRIST_SITE = "harmony_wrist_{}"  # a site at each wrist sensor joint's child body origin
@@ -95,8 +99,21 @@ def robot_spec(robot: Robot, sim_spec: SimSpec) -> mujoco.MjSpec:
             name2=robot.joint_names[coupling.leader],
             data=np.r_[coupling.offset, coupling.multiplier, np.zeros(mujoco.mjNEQDATA - 2)],
         )
-    _add_servos(spec, robot, _home_inertias(spec, robot))
+    _add_servos(spec, robot, sim_spec, _home_inertias(spec, robot))
     return spec
+
+
+def tool_geoms(spec: mujoco.MjSpec, robot: Robot) -> list[mujoco.MjsGeom]:
+    """The geoms of every tool (the bodies below a wrist sensor joint): the pads that touch what the hands hold."""
+    urdf = ET.parse(robot.urdf).getroot()
+    geoms: list[mujoco.MjsGeom] = []
+    for link in _sensor_children(urdf, robot.wrist_sensors):
+        below = [spec.body(link)]
+        while below:
+            body = below.pop()
+            geoms += body.geoms
+            below += body.bodies
+    return geoms
 
 
 def _sensor_children(urdf: ET.Element, sensors: tuple[str, ...]) -> list[str]:
@@ -105,14 +122,6 @@ def _sensor_children(urdf: ET.Element, sensors: tuple[str, ...]) -> list[str]:
         required(j, "name", "joint"): required(j.find("child"), "link", "joint child") for j in urdf.findall("joint")
     }
     return [child[joint] for joint in sensors]
-
-
-def efforts(robot: Robot) -> np.ndarray:
-    """Per joint, the motor's force limit: the URDF's effort, IDEAL_EFFORT off the base for actuators: ideal."""
-    effort = np.array(robot.effort, dtype=float)
-    if robot.actuators == "ideal":
-        effort[[i for i in range(robot.n_dof) if i not in robot.base_joints]] = IDEAL_EFFORT
-    return effort
 
 
 def _home_inertias(spec: mujoco.MjSpec, robot: Robot) -> np.ndarray:
@@ -127,9 +136,9 @@ def _home_inertias(spec: mujoco.MjSpec, robot: Robot) -> np.ndarray:
     return inertia[dofs, dofs]
 
 
-def _add_servos(spec: mujoco.MjSpec, robot: Robot, inertia: np.ndarray) -> None:
+def _add_servos(spec: mujoco.MjSpec, robot: Robot, sim_spec: SimSpec, inertia: np.ndarray) -> None:
     """A velocity servo per base joint, a position + velocity servo per other joint (module docstring)."""
-    effort = efforts(robot)
+    effort, omega = efforts(robot), BANDWIDTH_STEPS / sim_spec.physics_dt
     for i, name in enumerate(robot.joint_names):
         joint = spec.joint(name)
         joint.actfrclimited = True
@@ -142,10 +151,12 @@ def _add_servos(spec: mujoco.MjSpec, robot: Robot, inertia: np.ndarray) -> None:
         actuator.gaintype = mujoco.mjtGain.mjGAIN_FIXED
         actuator.biastype = mujoco.mjtBias.mjBIAS_AFFINE
         if i in robot.base_joints:
-            kv = inertia[i] * BANDWIDTH
+            kv = inertia[i] * omega
             actuator.gainprm[0], actuator.biasprm[:3] = kv, [0.0, 0.0, -kv]
         else:
-            kp, kv = inertia[i] * BANDWIDTH**2, 2 * inertia[i] * BANDWIDTH
+            kp = effort[i] / FULL_EFFORT_ERROR
+            joint.armature = max(0.0, kp / omega**2 - inertia[i])  # the rotor inertia the bandwidth needs
+            kv = 2 * np.sqrt(kp * (inertia[i] + joint.armature))
             actuator.gainprm[0], actuator.biasprm[:3] = 1.0, [0.0, -kp, -kv]
 
 

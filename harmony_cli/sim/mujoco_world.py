@@ -11,8 +11,8 @@ Contact parameters, chosen once for every scene (`contact_options`, `pad_contact
   everything else 0): the higher priority's friction, condim, solref and solimp make a contact. So pad-box contacts
   have condim 4 (torsional friction: the box does not pivot between the pads) with the box's sliding and spinning
   friction, what PyBullet uses (the product of the box's and the robot's friction, ROBOT_FRICTION = 1); the box
-  against a table or another robot link uses the box's friction (PyBullet: the product with the table's) and
-  condim 3 (PyBullet's tables have no spinning friction).
+  against another robot link uses the box's friction and condim 3; against a table, explicit pairs with the
+  product of the box's and the table's friction, as PyBullet (PyBullet's tables have no spinning friction).
 - Rigid contacts keep MuJoCo's default solref (0.02 s, damping ratio 1: at least twice a 4 ms step) and solimp.
 - Compliant pads (sim.pad_stiffness K [N/m], pad_damping D [N s/m]): MuJoCo's direct solref (-k, -b) is a spring
   per unit of the contact's effective mass, scaled by the impedance d: with solimp d constant (dmin = dmax = d)
@@ -98,6 +98,8 @@ def add_world(spec: mujoco.MjSpec, world: WorldSpec | None, sim_spec: SimSpec) -
         _add_obstacle(spec, obstacle)
     if world.box is not None:
         _add_box(spec, world.box)
+        for table in world.tables:
+            _box_on_table(spec, world.box, table)
 
 
 def _add_table(spec: mujoco.MjSpec, t: TableSpec) -> None:
@@ -122,6 +124,20 @@ def _add_table(spec: mujoco.MjSpec, t: TableSpec) -> None:
             quat=_quat(t.yaw_deg),
             friction=friction,
             rgba=_TABLE_RGBA,
+        )
+
+
+def _box_on_table(spec: mujoco.MjSpec, b: BoxSpec, t: TableSpec) -> None:
+    """The box's contacts with a table's top and legs as explicit pairs with the product of the two frictions, as
+    PyBullet combines them (MuJoCo would take the box's alone); the automatic contacts between them excluded."""
+    spec.add_exclude(bodyname1="box", bodyname2=f"table:{t.name}")
+    sliding = b.friction * t.friction
+    for part in ["top", *(f"leg{i}" for i in range(len(table_legs(t))))]:
+        spec.add_pair(
+            geomname1="box",
+            geomname2=f"table:{t.name}:{part}",
+            condim=3,
+            friction=[sliding, sliding, 0.0, ROLLING, ROLLING],
         )
 
 
