@@ -166,8 +166,9 @@ def test_compliant_pad_sinks_by_weight_over_stiffness():
     sim = SimSpec(pad_stiffness=20000.0, pad_damping=100.0)
 
     def pad_floor(spec):
-        floor = spec.worldbody.add_geom(name="pad", type=mujoco.mjtGeom.mjGEOM_BOX, size=[1, 1, 0.1], pos=[5, 5, 0.9])
-        set_pad_contacts([floor], sim, world.box)
+        pad = spec.worldbody.add_body(name="pad", pos=[5, 5, 0.9])
+        pad.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[1, 1, 0.1])
+        set_pad_contacts(spec, [pad], sim, world.box)
         body = spec.worldbody.add_body(name="ball", pos=[5, 5, 1.1])
         body.add_freejoint()
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.1, 0, 0], mass=world.box.mass)
@@ -186,11 +187,12 @@ def test_two_pads_squeezing_the_box_hold_it_by_friction():
     squeeze = 0.002  # [m] each pad into the box
 
     def pads(spec):
-        geoms = []
+        bodies = []
         for side in (-1, 1):
             body = spec.worldbody.add_body(name=f"pad{side}", mocap=True, pos=[side * (BOX / 2 + 0.01 - squeeze), 0, 1])
-            geoms.append(body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.01, 0.05, 0.05]))
-        set_pad_contacts(geoms, sim, world.box)
+            body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.01, 0.05, 0.05])
+            bodies.append(body)
+        set_pad_contacts(spec, bodies, sim, world.box)
 
     w = _scene(world, sim, pads)
     _step(w, 1.0)

@@ -103,17 +103,17 @@ def robot_spec(robot: Robot, sim_spec: SimSpec) -> mujoco.MjSpec:
     return spec
 
 
-def tool_geoms(spec: mujoco.MjSpec, robot: Robot) -> list[mujoco.MjsGeom]:
-    """The geoms of every tool (the bodies below a wrist sensor joint): the pads that touch what the hands hold."""
+def tool_bodies(spec: mujoco.MjSpec, robot: Robot) -> list[mujoco.MjsBody]:
+    """Every tool's bodies (those below a wrist sensor joint): the pads that touch what the hands hold."""
     urdf = ET.parse(robot.urdf).getroot()
-    geoms: list[mujoco.MjsGeom] = []
+    bodies: list[mujoco.MjsBody] = []
     for link in _sensor_children(urdf, robot.wrist_sensors):
         below = [spec.body(link)]
         while below:
             body = below.pop()
-            geoms += body.geoms
+            bodies.append(body)
             below += body.bodies
-    return geoms
+    return bodies
 
 
 def _sensor_children(urdf: ET.Element, sensors: tuple[str, ...]) -> list[str]:

@@ -11,7 +11,7 @@ import numpy as np
 from harmony_cli.robot.observation import Observation
 from harmony_cli.sim.mujoco_contacts import MujocoTouches
 from harmony_cli.sim.mujoco_pushes import MujocoPushes
-from harmony_cli.sim.mujoco_robot import MujocoRobot, robot_spec, tool_geoms
+from harmony_cli.sim.mujoco_robot import MujocoRobot, robot_spec, tool_bodies
 from harmony_cli.sim.mujoco_world import MujocoWorld, add_world, set_pad_contacts
 from harmony_cli.sim.truth import Truth
 
@@ -33,7 +33,7 @@ class MujocoSimulation:
         self.robot, self.spec = robot, sim_spec
         spec = robot_spec(robot, sim_spec)
         add_world(spec, world, sim_spec)
-        set_pad_contacts(tool_geoms(spec, robot), sim_spec, world.box if world is not None else None)
+        set_pad_contacts(spec, tool_bodies(spec, robot), sim_spec, world.box if world is not None else None)
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
         self.arm = MujocoRobot(self.model, self.data, robot, sim_spec)

@@ -18,7 +18,11 @@ Contact parameters, chosen once for every scene (`contact_options`, `pad_contact
   per unit of the contact's effective mass, scaled by the impedance d: with solimp d constant (dmin = dmax = d)
   one contact of effective mass m behaves as K = m k / (1 - d) and D = m b / (1 - d) (checked with a ball resting
   on a plane). The pads press the box: m is the box's mass, so solref = (-K (1 - d) / m, -D (1 - d) / m). Each
-  contact point is such a spring, as with PyBullet's contactStiffness: a pad's face on the box's face makes 4."""
+  contact point is such a spring, as with PyBullet's contactStiffness: a pad's face on the box's face makes 4.
+  The spring is the pad's along its normal only: a geom's solref sets the friction directions too, and a pad
+  as soft in shear lets a lifted box slide centimetres down the pads and pivot between them (PyBullet's
+  contactStiffness leaves friction rigid). So a compliant pad's contacts with the box are explicit pairs with
+  the pad's solref along the normal and MuJoCo's default in the friction directions (solreffriction)."""
 
 from __future__ import annotations
 
@@ -41,6 +45,7 @@ if TYPE_CHECKING:
 FAR = 5.0  # [m] clearances beyond this are reported as FAR (as sim/world.py)
 IMPRATIO = 10.0  # frictional over normal impedance: a held box does not creep out of the pads
 PAD_IMPEDANCE = 0.9  # constant impedance d of compliant pads (solimp dmin = dmax)
+RIGID_FRICTION = [0.02, 1.0]  # MuJoCo's default solref: the pads' friction on the box is not the pads' spring
 PAD_PRIORITY, BOX_PRIORITY = 2, 1
 TORSIONAL_CONDIM = 4  # normal, two tangents and spinning about the normal
 ROLLING = 1e-4  # rolling friction (unused with condim <= 4; MuJoCo's default)
@@ -78,12 +83,26 @@ def pad_contact_params(sim_spec: SimSpec, box: BoxSpec | None = None) -> dict:
     return params
 
 
-def set_pad_contacts(geoms: Iterable[mujoco.MjsGeom], sim_spec: SimSpec, box: BoxSpec | None = None) -> None:
-    """Give the pads' geoms (of the robot's MjSpec, before compiling) `pad_contact_params`."""
+def set_pad_contacts(
+    spec: mujoco.MjSpec, pads: Iterable[mujoco.MjsBody], sim_spec: SimSpec, box: BoxSpec | None = None
+) -> None:
+    """Give the geoms of the pads' bodies (of the robot's MjSpec, after add_world, before compiling)
+    `pad_contact_params`; with compliant pads and a box, their contacts with the box as explicit pairs whose
+    friction is rigid (RIGID_FRICTION), the automatic ones excluded (module docstring)."""
     params = pad_contact_params(sim_spec, box)
-    for geom in geoms:
-        for key, value in params.items():
-            setattr(geom, key, value)
+    paired = box is not None and sim_spec.pad_stiffness is not None
+    sliding, spinning = params["friction"][:2]
+    for body in pads:
+        for i, geom in enumerate(body.geoms):
+            for key, value in params.items():
+                setattr(geom, key, value)
+            if paired:
+                geom.name = geom.name or f"{body.name}:pad{i}"
+                pair = spec.add_pair(geomname1=geom.name, geomname2="box", condim=TORSIONAL_CONDIM)
+                pair.friction = [sliding, sliding, spinning, ROLLING, ROLLING]
+                pair.solref, pair.solimp, pair.solreffriction = params["solref"], params["solimp"], RIGID_FRICTION
+        if paired:
+            spec.add_exclude(bodyname1=body.name, bodyname2="box")
 
 
 def add_world(spec: mujoco.MjSpec, world: WorldSpec | None, sim_spec: SimSpec) -> None:
