@@ -5,7 +5,7 @@ STAMP := $(VENV)/.installed
 HARMONY := $(VENV)/bin/harmony
 TABLE1 := scenarios/paper/table1_s_shape.yaml
 
-.PHONY: install lint test test-slow bench reproduce-paper robots-unedited study study-validation docs clean
+.PHONY: install lint test test-slow bench reproduce-paper engines robots-unedited study study-validation docs clean
 
 # Ranges live in pyproject.toml; constraints.txt pins the versions every install uses (refresh it with
 # `.venv/bin/pip freeze | grep -v '^-e' > constraints.txt` after a deliberate upgrade).
@@ -75,6 +75,18 @@ reproduce-paper: $(STAMP)
 	for a in true false; do cp results/paper/push_recovery/runs/enabled-$$a/push_left_hand.png \
 		results/paper/push_recovery_admittance_$$a.png; done
 	$(VENV)/bin/python tools/render_docs.py
+
+# the paper's two-stage experiments, Table 1's S and the catalogue robots' box carry in both physics engines, one
+# run at a time; results/engines/engines.md sets their outcomes side by side
+ENGINES := pybullet mujoco
+engines: $(STAMP)
+	for g in $(ENGINES); do \
+		for e in $(EXPERIMENTS) table1_s_shape; do $(HARMONY) run scenarios/paper/$$e.yaml --set sim.engine=$$g \
+			--set name=$$e --out results/engines/runs/$$g/$$e --quiet || true; done; \
+		for r in $(ROBOTS); do $(HARMONY) run scenarios/robots/box_carry.yaml --set robot.preset=$$r \
+			--set sim.engine=$$g --set name=$${r}_box_carry --out results/engines/runs/$$g/$${r}_box_carry --quiet \
+			|| true; done; done
+	$(VENV)/bin/python tools/engines_table.py results/engines/runs --out results/engines/engines.md
 
 # the catalogue S for robots as example-robot-data ships them, each from a robot section of at most five lines and
 # no preset (scenarios/robots/unedited/); a robot whose run fails is tabulated with its failure, not skipped

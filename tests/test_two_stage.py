@@ -1,7 +1,8 @@
-"""The two MPCs in series, closed loop in PyBullet: a robot other than EVA, a box held by friction, the video,
-and the experiments report."""
+"""The two MPCs in series, closed loop in PyBullet (the box lift in MuJoCo too): a robot other than EVA, a box
+held by friction, the video, and the experiments report."""
 
 import json
+from pathlib import Path
 
 import imageio.v2 as imageio
 import numpy as np
@@ -16,6 +17,7 @@ runner = CliRunner()
 TWIN = ROOT / "scenarios" / "smoke" / "twin_arm_turn.yaml"
 BOX = ROOT / "scenarios" / "smoke" / "box_lift.yaml"
 PAPER = ROOT / "scenarios" / "paper"
+ENGINES = ("pybullet", "mujoco")
 
 
 @pytest.fixture(scope="module")
@@ -39,11 +41,30 @@ def test_a_robot_other_than_eva_runs_the_two_stage_loop_and_turns_to_its_goal(tw
 
 
 @pytest.fixture(scope="module")
-def lift_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("lift") / "run"
-    result = runner.invoke(app, ["run", str(BOX), "--out", str(out), "--quiet"])
-    assert_exit_follows_outcome(result, out)
-    return out
+def lift_runs(tmp_path_factory) -> dict[str, Path]:
+    """box_lift run closed loop in each engine."""
+    runs = {}
+    for engine in ENGINES:
+        out = tmp_path_factory.mktemp(f"lift_{engine}") / "run"
+        result = runner.invoke(app, ["run", str(BOX), "--out", str(out), "--quiet", "--set", f"sim.engine={engine}"])
+        assert_exit_follows_outcome(result, out)
+        runs[engine] = out
+    return runs
+
+
+@pytest.fixture(params=ENGINES)
+def lift_run(request, lift_runs) -> Path:
+    return lift_runs[request.param]
+
+
+def test_the_two_engines_lift_the_box_to_the_same_place_within_a_centimetre(lift_runs):
+    # PyBullet's friction is rigid, MuJoCo's soft: the box slides some millimetres down the pads in MuJoCo while the
+    # lift accelerates; the controller, the grasp and the lift are the same
+    ends = {
+        engine: pd.read_csv(out / "steps.csv")[["box_x", "box_y", "box_z"]].iloc[-1]
+        for engine, out in lift_runs.items()
+    }
+    assert np.linalg.norm(ends["pybullet"] - ends["mujoco"]) < 0.01, ends
 
 
 def test_the_box_is_lifted_by_friction_alone_and_never_dropped(lift_run):
@@ -56,10 +77,11 @@ def test_the_box_is_lifted_by_friction_alone_and_never_dropped(lift_run):
     # the squeeze is the admittance's 20 N force loop, measured by the wrist sensors once the ramp is over. While
     # the grasp closes on the written faces it is a proportional loop against the plan's grip width (K dp balances
     # the force error) and settles short of its reference; once the box is held the plan keeps the width the
-    # pads stand at, and the loop settles on its reference
+    # pads stand at, and the loop settles on its reference (how far short in the grasp depends on how stiff the
+    # servos and the contacts behind the pads are: 3 N in PyBullet, 4 N in MuJoCo)
     settled = steps[steps["left_force_ref_N"] >= 20.0]
-    for phase, low, high in (("squeeze", -0.2 * 20.0, -1.0), ("lift", -1.0, 1.0)):
-        at = settled[settled["phase"] == phase]
+    for phase, low, high in (("squeeze", -0.25 * 20.0, -1.0), ("lift", -1.5, 1.0)):
+        at = settled[settled["phase"] == phase].iloc[10:]  # 0.2 s after the ramp for the loop to settle
         for hand in ("left", "right"):
             error = at[f"{hand}_force_normal_N"] - at[f"{hand}_force_ref_N"]
             assert len(at) > 50 and low < error.mean() < high and error.std() < 1.0

@@ -15,7 +15,7 @@ import yaml
 from harmony_cli.robot.prepare import AUTO
 from harmony_cli.scenario import Scenario, robot_of, scenario_yaml
 
-PACKAGES = ("harmony-cli", "casadi", "pyoptas", "pin", "pybullet", "numpy", "pydantic", "pandas")
+PACKAGES = ("harmony-cli", "casadi", "pyoptas", "pin", "pybullet", "mujoco", "numpy", "pydantic", "pandas")
 
 
 def default_run_dir(name: str, root: Path = Path("results/runs")) -> Path:
