@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "harmony needs Python 3.11 (PyBullet wheels)"'
 	$(PYTHON) -m venv $(VENV)
 	$(VENV)/bin/pip install -q --upgrade pip
-	$(VENV)/bin/pip install -q -c constraints.txt -e '.[test,dev,robots,study,ray,view,mujoco]'
+	$(VENV)/bin/pip install -q -c constraints.txt -e '.[test,dev,robots,study,ray,view]'
 	touch $(STAMP)
 
 install: $(STAMP)

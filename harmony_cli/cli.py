@@ -203,7 +203,10 @@ def paths(
     if missing:
         fail(f"not run directories (no steps.csv): {', '.join(missing)}")
     try:
-        loaded = {r.name: (pd.read_csv(r / "steps.csv"), load_scenario(r / "scenario.resolved.yaml")) for r in runs}
+        loaded = {
+            r.name: (pd.read_csv(r / "steps.csv"), load_scenario(r / "scenario.resolved.yaml", runnable=False))
+            for r in runs
+        }
     except ScenarioError as exc:
         fail(str(exc))
     out.parent.mkdir(parents=True, exist_ok=True)

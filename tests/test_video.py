@@ -6,7 +6,8 @@ import pybullet
 import pytest
 from pybullet_utils.bullet_client import BulletClient
 
-from harmony_cli.sim.video import BulletCamera, VideoRecorder, frame_every
+from harmony_cli.sim.bullet_camera import BulletCamera
+from harmony_cli.sim.video import VideoRecorder, frame_every
 
 FRAMES, WIDTH, HEIGHT = 10, 160, 120
 

@@ -75,7 +75,7 @@ def main() -> None:
     if missing:
         _fail(f"{args.run_dir}: not a run directory (no {' or '.join(missing)})")
     try:
-        scenario = load_scenario(args.run_dir / "scenario.resolved.yaml")
+        scenario = load_scenario(args.run_dir / "scenario.resolved.yaml", runnable=False)
         robot = robot_of(scenario, args.run_dir)  # as `harmony run RUN_DIR/scenario.resolved.yaml` resolves paths
     except ScenarioError as exc:
         _fail(str(exc))

@@ -30,7 +30,7 @@ def held(run: Path) -> dict:
     """One run's row: its sample (directory name), success, failure category and the held-phase numbers."""
     task = json.loads((run / "summary.json").read_text())["task"]
     steps = pd.read_csv(run / "steps.csv")
-    chest = load_scenario(run / "scenario.resolved.yaml").robot.chest_joints
+    chest = load_scenario(run / "scenario.resolved.yaml", runnable=False).robot.chest_joints
     hold = steps[steps.holding.astype(bool)]
     carry = steps.index[steps.phase == "carry"]
     start = steps.loc[carry[0]] if len(carry) else None

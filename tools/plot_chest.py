@@ -33,7 +33,7 @@ def main() -> None:
     fig, axes = plt.subplots(1, 4, figsize=(17, 3.8))
     for run, label in zip(args.runs, labels):
         steps = pd.read_csv(run / "steps.csv")
-        scenario = load_scenario(run / "scenario.resolved.yaml")
+        scenario = load_scenario(run / "scenario.resolved.yaml", runnable=False)
         chest = scenario.robot.chest_joints[0]
         axes[0].plot(steps.t, np.rad2deg(steps[f"q_{chest}"]), label=label)
         axes[1].plot(steps.t, np.rad2deg(steps.q_base_yaw), label=label)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import platform
 import threading
 import webbrowser
 from pathlib import Path
@@ -9,6 +10,7 @@ from pathlib import Path
 import typer
 
 from harmony_cli.console import fail, literal
+from harmony_cli.scenario.models import installed_engines
 from harmony_cli.sim.video import VIDEO_SUFFIXES
 
 
@@ -31,6 +33,11 @@ def view(
         fail(f"view --export: {str(export)!r} must end in .html")
     if video is not None and video.suffix.lower() not in VIDEO_SUFFIXES:
         fail(f"view --video: {str(video)!r} must end in one of {', '.join(VIDEO_SUFFIXES)}")
+    if video is not None and "pybullet" not in installed_engines():  # view/video.py draws with PyBullet
+        fail(
+            f"view --video: renders with PyBullet, which this Python ({platform.python_version()}) does not have; "
+            "`harmony run --video` records one in either engine"
+        )
     try:
         loaded = load_runs(runs)
     except NotARun as exc:

@@ -25,7 +25,7 @@ def rebuild_run_dir(run_dir: Path) -> dict:
     run that left a summary keeps its status (completed, failed, interrupted); one that left none is "killed"."""
     if not (run_dir / STREAM).is_file():
         raise FileNotFoundError(f"{run_dir}: no {STREAM} (not a run directory, or made before runs streamed steps)")
-    scenario = load_scenario(run_dir / "scenario.resolved.yaml")
+    scenario = load_scenario(run_dir / "scenario.resolved.yaml", runnable=False)
     rows = read_stream(run_dir / STREAM)
     summary = _json(run_dir / "summary.json") or {"name": scenario.name, "status": "killed", "reason": REBUILT}
     if rows and "wall_clock_s" in rows[0] and "wall_time_s" not in summary:

@@ -6,11 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from harmony_cli.maths.rotations import grip_shear, off_square_deg, pad_axis
+from harmony_cli.maths.rotations import grip_shear, off_square_deg, pad_axis, quaternion_matrices
 from harmony_cli.planning.planner import Planner
 from harmony_cli.robot.observation import Observation
 from harmony_cli.sim.truth import Truth
-from harmony_cli.sim.wrench import rotation_matrices
 
 DROP_AFTER = 0.1  # [s] a held box without any contact with the robot for this long: dropped
 
@@ -40,7 +39,7 @@ class TaskWatch:
         tilt = float(np.degrees(np.arccos(np.clip(truth.box_z_axis[2], -1, 1))))
         if truth.box_pose is not None and len(obs.hand_positions) == 2:  # the box against the pads (e_z: normal)
             axis = pad_axis(obs.hand_rotations[:, :, 2])
-            row["box_off_square_deg"] = off_square_deg(rotation_matrices([truth.box_pose[3:7]])[0][:, 0], axis)
+            row["box_off_square_deg"] = off_square_deg(quaternion_matrices(truth.box_pose[3:7])[0][:, 0], axis)
             row["grip_shear_m"] = grip_shear(obs.hand_positions, axis)
         return row | {
             "box_x": centre[0],

@@ -44,3 +44,16 @@ def grip_shear(positions: np.ndarray, axis: np.ndarray) -> float:
     the line between them is the axis; otherwise their squeeze is a couple that turns what they hold."""
     d, u = (positions[1] - positions[0])[:2], axis[:2] / max(float(np.hypot(*axis[:2])), 1e-12)
     return float(abs(d[0] * u[1] - d[1] * u[0]))
+
+
+def quaternion_matrices(quaternions) -> np.ndarray:
+    """(n, 3, 3) rotation matrices of quaternions (x, y, z, w), by Bullet's formula (btMatrix3x3::setRotation) in
+    the same operations: bit for bit what PyBullet's getMatrixFromQuaternion gives, without PyBullet."""
+    x, y, z, w = np.asarray(quaternions, dtype=float).reshape(-1, 4).T
+    s = 2.0 / (x * x + y * y + z * z + w * w)
+    xs, ys, zs = x * s, y * s, z * s
+    wx, wy, wz = w * xs, w * ys, w * zs
+    xx, xy, xz = x * xs, x * ys, x * zs
+    yy, yz, zz = y * ys, y * zs, z * zs
+    rows = (1.0 - (yy + zz), xy - wz, xz + wy, xy + wz, 1.0 - (xx + zz), yz - wx, xz - wy, yz + wx, 1.0 - (xx + yy))
+    return np.stack(rows, axis=-1).reshape(-1, 3, 3)

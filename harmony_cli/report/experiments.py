@@ -16,7 +16,7 @@ from harmony_cli.scenario import load_scenario
 def _row(run: Path) -> dict:
     """One run's outcomes, recomputed from its steps and resolved scenario (the metrics of this version)."""
     s = json.loads((run / "summary.json").read_text())
-    scenario = load_scenario(run / "scenario.resolved.yaml")
+    scenario = load_scenario(run / "scenario.resolved.yaml", runnable=False)
     if scenario.task is None:
         return _tracking_row(s, scenario)
     task = task_outcome(pd.read_csv(run / "steps.csv"), scenario, list(scenario.robot.end_effectors))
@@ -107,7 +107,7 @@ def experiments_report(dirs: list[Path], out: Path, name: str = "experiments") -
         f"# {title}\n\n{markdown}\nMeasured by harmony on {meta.get('cpu', '?')}, one run at a time; {timed}.\n"
     )
     for d in dirs:
-        scenario = load_scenario(d / "scenario.resolved.yaml")
+        scenario = load_scenario(d / "scenario.resolved.yaml", runnable=False)
         plot_top_down(
             out,
             pd.read_csv(d / "steps.csv"),

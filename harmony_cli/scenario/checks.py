@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import sys
 import xml.etree.ElementTree as ET
 from functools import cache
 from pathlib import Path
@@ -13,7 +14,7 @@ from harmony_cli.robot.presets import PresetUnavailable, distribution_path
 from harmony_cli.robot.tools import tool_link
 from harmony_cli.robot.urdf import joints_and_links
 from harmony_cli.scenario.errors import ScenarioError, brief
-from harmony_cli.scenario.models import Scenario
+from harmony_cli.scenario.models import Scenario, installed_engines
 from harmony_cli.scenario.robot import RobotSpec
 from harmony_cli.scenario.source import read_text
 from harmony_cli.scenario.task import RelativeTarget
@@ -232,6 +233,17 @@ def check_pushes(path: Path, scenario: Scenario) -> None:
                 f"{where}.link: {push.link!r} is not a link of {Path(scenario.robot.urdf).name}; "
                 f"{closest(push.link, links)}"
             )
+
+
+def check_engine(path: Path, scenario: Scenario) -> None:
+    """The physics engine sim.engine names is installed on this Python (PyBullet has no wheels past 3.11)."""
+    engines = installed_engines()
+    if scenario.sim.engine not in engines:
+        version = ".".join(map(str, sys.version_info[:2]))
+        raise ScenarioError(
+            f"{path}: sim.engine: {scenario.sim.engine!r} is not installed on this Python ({version}); "
+            f"choose one of: {', '.join(engines) or '(none)'}"
+        )
 
 
 def check_solver(path: Path, scenario: Scenario) -> None:

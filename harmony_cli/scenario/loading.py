@@ -10,6 +10,7 @@ import yaml
 from pydantic import ValidationError
 
 from harmony_cli.scenario.checks import (
+    check_engine,
     check_pushes,
     check_robot,
     check_robot_builds,
@@ -58,9 +59,12 @@ def list_index(items: list, part: str, where: str) -> int:
     raise ScenarioError(f"{where}: {part!r} is not an index of a list of {len(items)}{named}")
 
 
-def load_scenario(path: str | Path, overrides: Sequence[str] = (), notices: list[str] | None = None) -> Scenario:
+def load_scenario(
+    path: str | Path, overrides: Sequence[str] = (), notices: list[str] | None = None, runnable: bool = True
+) -> Scenario:
     """Read (a file of an older schema as the current one: its deprecation notice appended to `notices`), override
-    and validate a scenario; raise ScenarioError with a one-line message."""
+    and validate a scenario; raise ScenarioError with a one-line message. `runnable=False` reads a run's record
+    (scenario.resolved.yaml) without asking for its physics engine here."""
     path = Path(path)
     raw = load_yaml_file(path)
     if not isinstance(raw, dict):
@@ -80,6 +84,8 @@ def load_scenario(path: str | Path, overrides: Sequence[str] = (), notices: list
     check_robot(path, scenario)
     check_task(path, scenario)
     check_pushes(path, scenario)
+    if runnable:
+        check_engine(path, scenario)
     check_solver(path, scenario)
     check_robot_builds(path, scenario)
     return scenario

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import math
 from typing import Any, Literal
 
@@ -154,11 +155,32 @@ class SolverSpec(Strict):
 
 
 MAX_SUBSTEPS = 1000  # physics steps per control step: more is a unit mistake (ms for s), not a simulation
+Engine = Literal["pybullet", "mujoco"]
+ENGINES: tuple[Engine, ...] = ("pybullet", "mujoco")
+
+
+def installed_engines() -> list[Engine]:
+    """The physics engines this Python has, found without importing them (PyBullet has wheels up to 3.11 only)."""
+    found = []
+    for engine in ENGINES:
+        try:
+            if importlib.util.find_spec(engine) is not None:
+                found.append(engine)
+        except (ImportError, ValueError):  # an import hook refusing it, a module without a spec
+            pass
+    return found
+
+
+def default_engine() -> Engine:
+    """sim.engine when a scenario does not say: PyBullet where it is installed, else MuJoCo."""
+    return "pybullet" if "pybullet" in installed_engines() else "mujoco"
 
 
 class SimSpec(Strict):
-    engine: Literal["pybullet", "mujoco"] = Field(
-        "pybullet", description="the physics engine: PyBullet, or MuJoCo (the `mujoco` extra); the same scene in both"
+    engine: Engine = Field(
+        default_factory=default_engine,
+        description="the physics engine, the same scene in both: PyBullet or MuJoCo; default pybullet where PyBullet "
+        "is installed (Python <= 3.11), mujoco where it is not (a run's scenario.resolved.yaml names the one used)",
     )
     physics_dt: float = Field(0.004, ge=1e-4, description="physics step [s]")
     control_dt: PositiveFloat = Field(0.02, description="MPC period [s]; a whole multiple of physics_dt")

@@ -14,12 +14,12 @@ from harmony_cli.capture import captured_output
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.observation import Observation
 from harmony_cli.sim import PYBULLET_BANNER
+from harmony_cli.sim.bullet_camera import BulletCamera
 from harmony_cli.sim.contacts import pad_contacts
 from harmony_cli.sim.motors import efforts
 from harmony_cli.sim.pushes import Pushes
 from harmony_cli.sim.touches import Touches
 from harmony_cli.sim.truth import Truth
-from harmony_cli.sim.video import BulletCamera
 from harmony_cli.sim.world import BODY_FLAGS, World
 from harmony_cli.sim.wrench import WristSensors, rotation_matrices
 

@@ -1,13 +1,13 @@
 """Scripted pushes: external forces on the robot, the box or an obstacle, applied in PyBullet every physics
 substep while active (PyBullet clears external forces after each stepSimulation). A push is a set force, or a
-spring pusher (`stiffness`) whose force depends on how far the pushed point gives way."""
+spring pusher (`stiffness`) whose force depends on how far the pushed point gives way. The push windows (`active`)
+are MuJoCo's too: PyBullet is imported only by the Pushes of a PyBullet run."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
 import numpy as np
-import pybullet
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -37,7 +37,9 @@ class Pushes:
         world: World | None = None,
         physics_dt: float = 0.004,
     ):
-        self.client, self.specs, self.dt = client, list(specs), physics_dt
+        import pybullet  # a PyBullet run's: mujoco_pushes.py shares `active` on Pythons without PyBullet
+
+        self.client, self.specs, self.dt, self.world_frame = client, list(specs), physics_dt, pybullet.WORLD_FRAME
         self.applied = [np.zeros(3) for _ in self.specs]  # the force of the last physics substep [N]
         # spring pushers: the point in the substep before the push, and (point, velocity) when the push began
         self.previous: list[np.ndarray | None] = [None] * len(self.specs)
@@ -98,7 +100,7 @@ class Pushes:
                 if spec.stiffness is None
                 else self._spring_force(i, spec, spec.stiffness, t, point)
             )
-            self.client.applyExternalForce(body, link, force.tolist(), point.tolist(), pybullet.WORLD_FRAME)
+            self.client.applyExternalForce(body, link, force.tolist(), point.tolist(), self.world_frame)
             self.applied[i] = force
 
     def magnitudes(self, t: float) -> dict[str, float]:

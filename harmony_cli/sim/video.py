@@ -1,13 +1,13 @@
 """Record a headless simulation to an .mp4 or .gif, one frame of an engine's camera per capture(); the camera's
-placement (a 3/4 view following the base) is shared by the engines; PyBullet's camera (TinyRenderer) is here."""
+placement (a 3/4 view following the base) is shared by the engines, whose cameras are bullet_camera.py (PyBullet's
+TinyRenderer) and mujoco_camera.py. No engine is imported here."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-import pybullet
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
 CAMERA_DISTANCE = 4.5  # m from the look-at point
@@ -35,44 +35,6 @@ def _open_writer(path: Path, fps: float):
     # Pillow can only save a whole animated GIF at close, so frames wait there: bits=8 keeps each
     # one as a 256-colour palette image (1 byte/pixel). Duration is per frame in ms; loop=0 repeats.
     return imageio.get_writer(path, format="pillow", mode="I", duration=1000.0 / fps, loop=0, bits=8)
-
-
-class BulletCamera:
-    """A 3/4 view of a caller-owned DIRECT BulletClient (never disconnected here) by TinyRenderer, aimed at
-    `follow()` (or `target`) for each frame."""
-
-    def __init__(
-        self,
-        client,
-        size: tuple[int, int] = (640, 480),
-        follow: Callable[[], np.ndarray] | None = None,
-        target: Sequence[float] = DEFAULT_TARGET,
-    ):
-        self.client, self.follow = client, follow
-        self.width, self.height = size
-        self.target = np.asarray(target, dtype=float)
-        self.projection = client.computeProjectionMatrixFOV(
-            fov=CAMERA_FOV, aspect=self.width / self.height, nearVal=0.05, farVal=50.0
-        )
-
-    def look_at(self) -> np.ndarray:
-        """World point the camera is aimed at for the next frame."""
-        return self.target if self.follow is None else np.asarray(self.follow(), dtype=float)[:3]
-
-    def render(self) -> np.ndarray:
-        """One (height, width, 3) uint8 RGB image of the current world state."""
-        view = self.client.computeViewMatrixFromYawPitchRoll(
-            cameraTargetPosition=self.look_at().tolist(),
-            distance=CAMERA_DISTANCE,
-            yaw=CAMERA_YAW,
-            pitch=CAMERA_PITCH,
-            roll=0.0,
-            upAxisIndex=2,
-        )
-        _, _, rgba, _, _ = self.client.getCameraImage(
-            self.width, self.height, view, self.projection, renderer=pybullet.ER_TINY_RENDERER
-        )
-        return np.asarray(rgba, dtype=np.uint8).reshape(self.height, self.width, 4)[..., :3]
 
 
 class VideoRecorder:

@@ -107,7 +107,8 @@ class WristSensors:
 
 def rotation_matrices(quaternions: Sequence) -> np.ndarray:
     """(n, 3, 3) from PyBullet quaternions (x, y, z, w) through PyBullet's own conversion, the module function (no
-    physics server): the same formula in numpy is bit-identical but 5x slower for a handful."""
+    physics server): the same formula in numpy (maths/rotations.py's quaternion_matrices) is bit-identical but 5x slower
+    for a handful."""
     return np.array([pybullet.getMatrixFromQuaternion(q) for q in quaternions]).reshape(-1, 3, 3)
 
 

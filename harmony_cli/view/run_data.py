@@ -63,7 +63,7 @@ def load_run(path: Path) -> RunData:
     if not path.is_dir() or not steps_csv.is_file() or not resolved.is_file():
         raise NotARun(f"{path}: not a run directory (needs steps.csv and scenario.resolved.yaml)")
     try:
-        scenario = load_scenario(resolved)
+        scenario = load_scenario(resolved, runnable=False)
         steps = pd.read_csv(steps_csv)
     except (ScenarioError, ValueError, OSError) as exc:
         raise NotARun(f"{path}: cannot read its run files: {str(exc).splitlines()[0]}") from exc

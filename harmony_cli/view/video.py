@@ -12,7 +12,8 @@ import pybullet
 from pybullet_utils.bullet_client import BulletClient
 
 from harmony_cli.capture import captured_output
-from harmony_cli.sim.video import BulletCamera, VideoRecorder, frame_every
+from harmony_cli.sim.bullet_camera import BulletCamera
+from harmony_cli.sim.video import VideoRecorder, frame_every
 from harmony_cli.sim.world import World
 from harmony_cli.view.run_data import RunData
 
