@@ -1,3 +1,4 @@
+import importlib.util
 import json
 from pathlib import Path
 
@@ -43,3 +44,10 @@ def assert_exit_follows_outcome(result, run_dir: Path) -> dict:
     assert summary["status"] == "completed", result.output
     assert result.exit_code == (0 if succeeded(summary) else 1), result.output
     return summary
+
+
+HAS_PYBULLET = importlib.util.find_spec("pybullet") is not None
+# the tests of PyBullet itself (harmony's PyBullet engine, or PyBullet as the reference others are checked against)
+needs_pybullet = pytest.mark.skipif(
+    not HAS_PYBULLET, reason="needs PyBullet, which has no wheels for this Python (> 3.11): MuJoCo alone"
+)

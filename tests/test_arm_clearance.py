@@ -6,10 +6,8 @@ from __future__ import annotations
 
 import casadi as cs
 import numpy as np
-import pybullet
 import pytest
-from conftest import ROOT, TABLE1, assert_exit_follows_outcome
-from pybullet_utils.bullet_client import BulletClient
+from conftest import ROOT, TABLE1, assert_exit_follows_outcome, needs_pybullet
 from typer.testing import CliRunner
 
 from harmony_cli.cli import app
@@ -20,6 +18,12 @@ from harmony_cli.mpc.transcription import make_transcription
 from harmony_cli.mpc.wholebody_problem import build_problem
 from harmony_cli.robot.arm_points import MARGIN
 from harmony_cli.scenario import ScenarioError, TableSpec, load_scenario, robot_of
+
+try:  # PyBullet has wheels up to Python 3.11 only: the tests that use it are marked needs_pybullet
+    import pybullet
+    from pybullet_utils.bullet_client import BulletClient
+except ImportError:
+    pass
 
 BOX_LIFT = ROOT / "scenarios" / "smoke" / "box_lift.yaml"
 TOP = table_top(TableSpec(name="t", position=(0.0, 0.0), top=(1.5, 0.8), height=1.0))
@@ -50,6 +54,7 @@ def _pose(client, body, index, eva, q) -> None:
         client.resetJointState(body, index[name], value)
 
 
+@needs_pybullet
 def test_the_arm_points_sit_on_their_links_where_pybullet_places_the_links(eva, bullet_eva, rng):
     client, body, _, index = bullet_eva
     for _ in range(20):
@@ -70,6 +75,7 @@ def test_the_arm_points_sit_on_their_links_where_pybullet_places_the_links(eva, 
 # shoulder box, whose corners stand 7 mm beyond the radius (and Bullet's 1 mm collision margin), so a row that
 # holds keeps the links off; at most the radius, the margin and the soft-min's bound below it: a cylinder's flat
 # end seen along its axis, which its sphere overstates by the radius.
+@needs_pybullet
 def test_an_arm_row_is_the_arm_links_distance_to_a_table_top_less_the_margin_to_within_the_radius(eva, bullet_eva):
     client, body, slab, index = bullet_eva
     radius = 0.05

@@ -8,13 +8,17 @@ from pathlib import Path
 import casadi
 import numpy as np
 import pytest
-from conftest import assert_rejected
+from conftest import assert_rejected, needs_pybullet
 from typer.testing import CliRunner
 
 from harmony_cli.cli import app
 from harmony_cli.robot.presets import available_presets
 from harmony_cli.scenario import load_scenario, robot_of
-from harmony_cli.sim.bullet import BulletSimulation
+
+try:  # PyBullet has wheels up to Python 3.11 only: the tests that use it are marked needs_pybullet
+    from harmony_cli.sim.bullet import BulletSimulation
+except ImportError:
+    pass
 
 runner = CliRunner()
 TWIN = "name: x\nrobot: {preset: twin_arm%s}\nreference: {type: hold}\n"
@@ -49,6 +53,7 @@ def test_the_base_pose_is_the_start_of_the_base_joints(tmp_path):
     np.testing.assert_allclose(robot.home[list(robot.base_joints)], [1.5, -2.0, np.deg2rad(30)])
 
 
+@needs_pybullet
 def test_a_declared_tool_frame_sits_on_its_parent_and_carries_the_wrist_sensor(tmp_path):
     tools = ", tools: {left: {parent: l_hand, xyz: [0.05, 0, 0.02], rpy_deg: [90, 0, 0], pad: [0.05, 0.05, 0.01]}}"
     scenario, robot = _robot(tmp_path, tools)
@@ -185,6 +190,7 @@ def test_robots_lists_presets_and_show_prints_joints_frames_and_gravity():
     assert wrong.exit_code == 2 and "closest" in wrong.output
 
 
+@needs_pybullet
 def test_a_catalogue_robot_run_prints_only_its_summary_and_logs_the_rest(tmp_path):
     """TIAGo dual (86 joints locked, 112 links merged, 219 foreign elements): the console gets the summary line
     alone (--quiet: no progress bar); the parsers' and PyBullet's messages land in run.log."""

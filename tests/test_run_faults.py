@@ -8,6 +8,7 @@ import errno
 import itertools
 import json
 import os
+import re
 from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
@@ -15,7 +16,7 @@ from types import SimpleNamespace
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import ROOT, SMOKE
+from conftest import ROOT, SMOKE, needs_pybullet
 from typer.testing import CliRunner
 
 from harmony_cli.cli import app
@@ -29,7 +30,11 @@ from harmony_cli.planning import hand_mpc
 from harmony_cli.planning.hand_sqp import HandSQP
 from harmony_cli.robot.presets import resolve_path
 from harmony_cli.scenario import load_scenario, robot_of
-from harmony_cli.sim.bullet import BulletSimulation
+
+try:  # PyBullet has wheels up to Python 3.11 only: the tests that use it are marked needs_pybullet
+    from harmony_cli.sim.bullet import BulletSimulation
+except ImportError:
+    pass
 
 TWIN = ROOT / "scenarios" / "smoke" / "twin_arm_turn.yaml"
 DT = 0.02  # the smoke S's control period [s]
@@ -125,6 +130,7 @@ def test_a_first_solve_that_fails_leaves_no_plan_to_hold_and_fails_the_run_as_a_
     assert "no plan to hold; stopped before its first step" in summary["reason"] and len(steps) == 0
 
 
+@needs_pybullet
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")  # numpy's on the overflow injected ("huge")
 @pytest.mark.parametrize("kind, status", [("nan", "non-finite solution"), ("huge", "non-finite command")])
 def test_a_nan_solution_or_command_never_reaches_the_simulator_and_the_last_plan_is_held(
@@ -172,6 +178,7 @@ def test_a_planner_exception_or_nan_plan_holds_its_last_plan(monkeypatch, tmp_pa
     )
 
 
+@needs_pybullet
 def test_a_lost_simulator_connection_fails_the_run_and_keeps_the_steps_so_far(monkeypatch, tmp_path):
     _after_control_step(monkeypatch, 19, lambda sim: sim.client.disconnect())
     code, lines, summary, steps = _run(tmp_path / "run")
@@ -218,6 +225,7 @@ def test_a_full_disk_while_the_summary_is_written_leaves_no_half_summary(monkeyp
     assert len(steps) == 50 and (out / "run.log").read_text().endswith("status: failed\n")
 
 
+@needs_pybullet
 def test_a_joint_teleported_past_its_limits_fails_the_run_as_diverged_naming_the_joint(monkeypatch, tmp_path):
     _after_control_step(monkeypatch, 20, _teleport("LARM_JOINT1", 2.5))
     code, lines, summary, steps = _run(tmp_path / "run")
@@ -226,6 +234,7 @@ def test_a_joint_teleported_past_its_limits_fails_the_run_as_diverged_naming_the
     assert "at t = 0.42 s, outside its URDF limits" in summary["reason"] and len(steps) == 22  # the step that shows it
 
 
+@needs_pybullet
 def test_a_base_jump_fails_the_run_as_diverged(monkeypatch, tmp_path):
     _after_control_step(monkeypatch, 20, _teleport("base_x", 1.0))
     code, lines, summary, steps = _run(tmp_path / "run")
@@ -260,7 +269,8 @@ def _g1(tmp_path: Path, mount: str | None) -> Path:
 def test_a_package_humanoid_placed_with_its_feet_in_the_ground_is_refused_and_runs_once_mounted_clear(tmp_path):
     code, lines, summary, steps = _run(tmp_path / "ground", scenario=_g1(tmp_path, "null"))  # where its URDF puts it
     assert code == 1 and len(lines) == 1, lines  # before: thrown ~1 m by the ground and reported "completed"
-    assert "link right_ankle_roll_link is 79.2 cm inside the ground" in lines[0], lines
+    # the deepest link, one of the two feet level with each other (PyBullet names the right, MuJoCo the left)
+    assert re.search(r"link (left|right)_ankle_roll_link is 79\.2 cm inside the ground", lines[0]), lines
     assert (summary["failure"], len(steps)) == ("penetration", 0)
     mounted = _g1(tmp_path, "{xyz: [0, 0, 0.80], rpy_deg: [0, 0, 0]}")  # its pelvis at its height
     code, lines, summary, steps = _run(tmp_path / "mounted", scenario=mounted)

@@ -13,9 +13,8 @@ import casadi
 import numpy as np
 import optas
 import pinocchio as pin
-import pybullet
 import pytest
-from pybullet_utils.bullet_client import BulletClient
+from conftest import needs_pybullet
 from typer.testing import CliRunner
 
 import harmony_cli.robot.prepare as prepare_module
@@ -24,6 +23,12 @@ from harmony_cli.robot.arm_points import arm_chains
 from harmony_cli.robot.prepare import PYBULLET_MAX_JOINTS, UrdfPlan, prepare_urdf
 from harmony_cli.robot.sanitize import CONTINUOUS_LIMIT, MASSLESS_LINK_MASS
 from harmony_cli.robot.urdf import joints_and_links
+
+try:  # PyBullet has wheels up to Python 3.11 only: the tests that use it are marked needs_pybullet
+    import pybullet
+    from pybullet_utils.bullet_client import BulletClient
+except ImportError:
+    pass
 
 BASE = ("base_x", "base_y", "base_yaw")
 ARMS = ("l_shoulder", "l_roll", "l_wrist", "r_shoulder", "r_roll", "r_wrist")
@@ -137,6 +142,7 @@ def test_a_continuous_home_wraps_and_a_revolute_home_outside_its_limits_is_refus
         prepare_urdf(urdf, UrdfPlan(BASE, active=ARMS, home={"l_shoulder": 120.0}), tmp_path / "cache")
 
 
+@needs_pybullet
 def test_links_without_inertia_weigh_the_documented_mass_in_pybullet_and_pinocchio(tmp_path, bullet):
     urdf = synthetic_urdf(tmp_path / "robot.urdf")
     shipped = bullet.loadURDF(str(urdf), useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE)
@@ -152,6 +158,7 @@ def test_links_without_inertia_weigh_the_documented_mass_in_pybullet_and_pinocch
     assert model.inertias[tool.parentJoint].mass == pytest.approx(1.0 + 2 * 1.0 + MASSLESS_LINK_MASS)
 
 
+@needs_pybullet
 def test_locked_joints_and_mimics_put_the_fingers_where_the_shipped_robot_has_them(tmp_path, bullet, rng):
     """The finger (locked at 0.5 m) and its mimic (-1 x 0.5 + 0.01) in the prepared URDF (PyBullet) sit where
     Pinocchio puts them in the shipped URDF with those joint values, at random arm configurations."""
@@ -178,6 +185,7 @@ def test_locked_joints_and_mimics_put_the_fingers_where_the_shipped_robot_has_th
             np.testing.assert_allclose(in_bullet, _pin_frame(shipped, data, link), atol=1e-7)
 
 
+@needs_pybullet
 def test_more_links_than_pybullet_takes_merge_keeping_mass_and_hand_frames(tmp_path, bullet, monkeypatch):
     """Merged against the same robot prepared unmerged (Pinocchio reads both): same mass, centre of mass and hand
     frames; only the merged one fits PyBullet."""
@@ -203,6 +211,7 @@ def test_more_links_than_pybullet_takes_merge_keeping_mass_and_hand_frames(tmp_p
     np.testing.assert_allclose(merged_frames, frames, atol=1e-9)
 
 
+@needs_pybullet
 def test_pinocchio_gravity_torques_match_pybullet_inverse_dynamics(tmp_path, bullet):
     from harmony_cli.robot.gravity import gravity_torques
 
@@ -233,6 +242,7 @@ def test_optas_hand_frames_match_pinocchio_on_the_reduced_robot(tmp_path):
         np.testing.assert_allclose(in_optas, _pin_frame(reduced, data, link), atol=1e-9)
 
 
+@needs_pybullet
 def test_a_robot_of_exactly_128_joints_is_merged_below_pybullets_limit(tmp_path, bullet):
     """PyBullet fails its state queries at 128 links (127 is the most it takes): one joint over is merged."""
     plain = prepare_urdf(synthetic_urdf(tmp_path / "robot.urdf"), PLAN, tmp_path / "cache")
