@@ -140,6 +140,7 @@ def _home_inertias(spec: mujoco.MjSpec, robot: Robot) -> np.ndarray:
 def _add_servos(spec: mujoco.MjSpec, robot: Robot, sim_spec: SimSpec, inertia: np.ndarray) -> None:
     """A velocity servo per base joint, a position + velocity servo per other joint (module docstring)."""
     effort, omega = efforts(robot), BANDWIDTH_STEPS / sim_spec.physics_dt
+    urdf_effort = np.asarray(robot.effort, dtype=float)  # the servos' stiffness, also under actuators: ideal
     for i, name in enumerate(robot.joint_names):
         joint = spec.joint(name)
         joint.actfrclimited = True
@@ -155,7 +156,7 @@ def _add_servos(spec: mujoco.MjSpec, robot: Robot, sim_spec: SimSpec, inertia: n
             kv = inertia[i] * omega
             actuator.gainprm[0], actuator.biasprm[:3] = kv, [0.0, 0.0, -kv]
         else:
-            kp = robot.effort[i] / FULL_EFFORT_ERROR  # the URDF's motor, also under actuators: ideal
+            kp = urdf_effort[i] / FULL_EFFORT_ERROR
             joint.armature = max(0.0, kp / omega**2 - inertia[i])  # the rotor inertia the bandwidth needs
             kv = 2 * np.sqrt(kp * (inertia[i] + joint.armature))
             actuator.gainprm[0], actuator.biasprm[:3] = 1.0, [0.0, -kp, -kv]
