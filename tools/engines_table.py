@@ -41,7 +41,9 @@ def _clearances(per_obstacle: dict) -> str:
 
 
 def table(runs: Path) -> str:
-    engines = sorted(p.name for p in runs.iterdir() if p.is_dir())
+    engines = sorted(
+        (p.name for p in runs.iterdir() if p.is_dir()), key=lambda e: (e != "pybullet", e)
+    )  # the default first
     scenarios = list(dict.fromkeys(p.name for e in engines for p in sorted((runs / e).iterdir()) if p.is_dir()))
     summaries = {
         (e, s): json.loads((runs / e / s / "summary.json").read_text())
