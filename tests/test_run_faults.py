@@ -242,9 +242,10 @@ def test_a_base_jump_fails_the_run_as_diverged(monkeypatch, tmp_path):
     assert (summary["failure"], len(steps)) == ("diverged", 22) and "to t = 0.42 s" in summary["reason"]
 
 
-def test_a_robot_starting_inside_an_obstacle_is_refused_before_the_loop(tmp_path):
+@pytest.mark.parametrize("engine", ["pybullet", "mujoco"])
+def test_a_robot_starting_inside_an_obstacle_is_refused_before_the_loop(tmp_path, engine):
     block = "world.obstacles=[{name: block, shape: box, position: [0.0, 0.0, 0.3], size: [0.4, 0.4, 0.4]}]"
-    code, lines, summary, steps = _run(tmp_path / "run", block)
+    code, lines, summary, steps = _run(tmp_path / "run", block, f"sim.engine={engine}")
     assert code == 1 and len(lines) == 1 and "inside obstacle block" in lines[0] and "at the start" in lines[0]
     assert (summary["status"], summary["failure"], len(steps)) == ("failed", "penetration", 0)
     assert "decision_variables" not in summary  # refused before the MPCs were built
@@ -264,6 +265,16 @@ def _g1(tmp_path: Path, mount: str | None) -> Path:
     scenario = tmp_path / "g1.yaml"
     scenario.write_text(SMOKE.read_text() + robot)
     return scenario
+
+
+def test_a_package_humanoid_with_its_feet_in_the_ground_is_refused_in_mujoco_too_though_the_robot_skips_the_ground(
+    tmp_path,
+):
+    # MuJoCo's robot does not collide with the ground (it stands on its virtual base joints): the start check
+    # measures the robot's geoms against the ground plane instead
+    code, lines, summary, _ = _run(tmp_path / "ground", "sim.engine=mujoco", scenario=_g1(tmp_path, "null"))
+    assert code == 1 and len(lines) == 1 and "inside the ground" in lines[0], lines
+    assert summary["failure"] == "penetration"
 
 
 def test_a_package_humanoid_placed_with_its_feet_in_the_ground_is_refused_and_runs_once_mounted_clear(tmp_path):

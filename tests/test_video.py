@@ -76,3 +76,25 @@ def test_frame_every():
     assert frame_every(0.02, 25) == 2
     assert frame_every(0.1, 25) == 1  # never fewer than one control step
     assert frame_every(0.001, 30) == 33
+
+
+def test_mujoco_s_camera_renders_the_same_view_offscreen_with_the_box_in_it():
+    import mujoco
+
+    from harmony_cli.sim.mujoco_camera import MujocoCamera
+
+    def scene(rgba: str) -> mujoco.MjModel:
+        box = f'<geom type="box" size=".5 .5 .5" pos="0 0 1" rgba="{rgba}"/>'
+        return mujoco.MjModel.from_xml_string(
+            f'<mujoco><worldbody><geom type="plane" size="0 0 1"/>{box}</worldbody></mujoco>'
+        )
+
+    red, model = [], None
+    for rgba in ("0.9 0.1 0.1 1", "0.9 0.1 0.1 0"):  # the box, then the same scene without it
+        model = scene(rgba)
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        image = MujocoCamera(model, data, (WIDTH, HEIGHT), lambda: np.array([0.0, 0.0, 0.5])).render()
+        assert image.dtype == np.uint8 and image.shape == (HEIGHT, WIDTH, 3)
+        red.append(((image[..., 0] > 120) & (image[..., 1] < 80) & (image[..., 2] < 80)).sum())
+    assert red[0] > 100 and red[1] == 0

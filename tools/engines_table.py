@@ -16,7 +16,6 @@ COLUMNS = (  # (heading, value from a run's summary)
     ("box goal error [cm]", lambda s: _cm(s.get("task", {}).get("box_goal_error_m"))),
     ("min clearance robot / box [cm]", lambda s: _clearances(s.get("task", {}).get("min_clearance_m") or {})),
     ("max tracking error [cm]", lambda s: _cm(s.get("tracking_error", {}).get("max_m"))),
-    ("wall time [s]", lambda s: f"{s['wall_time_s']:.1f}" if s.get("wall_time_s") else "-"),
 )
 
 
@@ -42,7 +41,9 @@ def _clearances(per_obstacle: dict) -> str:
 
 
 def table(runs: Path) -> str:
-    engines = sorted(p.name for p in runs.iterdir() if p.is_dir())
+    engines = sorted(
+        (p.name for p in runs.iterdir() if p.is_dir()), key=lambda e: (e != "pybullet", e)
+    )  # the default first
     scenarios = list(dict.fromkeys(p.name for e in engines for p in sorted((runs / e).iterdir()) if p.is_dir()))
     summaries = {
         (e, s): json.loads((runs / e / s / "summary.json").read_text())
@@ -61,7 +62,10 @@ def table(runs: Path) -> str:
     metas = [json.loads(p.read_text()) for p in sorted(runs.glob("*/*/meta.json"))]
     cpus = sorted({m.get("cpu", "?") for m in metas})
     commits = sorted({m.get("git_sha", "?")[:7] for m in metas})
-    lines += ["", f"Measured by harmony on {', '.join(cpus)}, one run at a time, at commit {', '.join(commits)}."]
+    lines += [
+        "",
+        f"Measured by harmony on {', '.join(cpus)} at commit {', '.join(commits)}; outcomes only (speeds: make bench).",
+    ]
     return "\n".join(lines) + "\n"
 
 

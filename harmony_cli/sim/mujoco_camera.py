@@ -12,6 +12,7 @@ from harmony_cli.sim.video import CAMERA_DISTANCE, CAMERA_FOV, CAMERA_PITCH, CAM
 
 # PyBullet's camera yaw turns the view about z from looking along +y; MuJoCo's azimuth from looking along +x
 AZIMUTH_OF_YAW = 90.0
+HEADLIGHT = ([0.45] * 3, [0.6] * 3)  # ambient, diffuse: about TinyRenderer's brightness
 
 
 class MujocoCamera:
@@ -24,6 +25,7 @@ class MujocoCamera:
         model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
         model.vis.global_.offheight = max(model.vis.global_.offheight, height)
         model.vis.global_.fovy = CAMERA_FOV
+        model.vis.headlight.ambient, model.vis.headlight.diffuse = HEADLIGHT  # the scene has no lights of its own
         self.data, self.follow = data, follow
         self.renderer = mujoco.Renderer(model, height, width)
         self.view = mujoco.MjvCamera()

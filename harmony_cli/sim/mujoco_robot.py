@@ -18,7 +18,8 @@ actuator force range (the effort), so a servo holds home without a steady error 
 carry its arm sags, as a real motor would. The compensation acts through the joints only, so the wrist sensors
 still carry the tool's weight (a real sensor does).
 
-The gains: one rule for every robot and scene. Stiffness from the motor: kp = effort / FULL_EFFORT_ERROR, so a
+The gains: one rule for every robot and scene. Stiffness from the motor: kp = the URDF's effort / FULL_EFFORT_ERROR
+(`actuators: ideal` lifts the clamp, not the stiffness), so a
 motor gives its full effort a small angle off its target whatever the inertia behind it (PyBullet's motors are
 velocity constraints, stiff up to their effort; a gain scaled by the link's inertia left a light wrist so soft that
 the millimetres of the force loop's squeeze were lost in its give). Each servo is critically damped and its natural
@@ -139,6 +140,7 @@ def _home_inertias(spec: mujoco.MjSpec, robot: Robot) -> np.ndarray:
 def _add_servos(spec: mujoco.MjSpec, robot: Robot, sim_spec: SimSpec, inertia: np.ndarray) -> None:
     """A velocity servo per base joint, a position + velocity servo per other joint (module docstring)."""
     effort, omega = efforts(robot), BANDWIDTH_STEPS / sim_spec.physics_dt
+    urdf_effort = np.asarray(robot.effort, dtype=float)  # the servos' stiffness, also under actuators: ideal
     for i, name in enumerate(robot.joint_names):
         joint = spec.joint(name)
         joint.actfrclimited = True
@@ -154,7 +156,7 @@ def _add_servos(spec: mujoco.MjSpec, robot: Robot, sim_spec: SimSpec, inertia: n
             kv = inertia[i] * omega
             actuator.gainprm[0], actuator.biasprm[:3] = kv, [0.0, 0.0, -kv]
         else:
-            kp = effort[i] / FULL_EFFORT_ERROR
+            kp = urdf_effort[i] / FULL_EFFORT_ERROR
             joint.armature = max(0.0, kp / omega**2 - inertia[i])  # the rotor inertia the bandwidth needs
             kv = 2 * np.sqrt(kp * (inertia[i] + joint.armature))
             actuator.gainprm[0], actuator.biasprm[:3] = 1.0, [0.0, -kp, -kv]

@@ -119,13 +119,24 @@ class MujocoSimulation:
         return self._open
 
     def penetrations(self) -> list[tuple[str, str, float]]:
+        """Contacts of the robot with the scene, and its geoms below the ground (which it does not collide with)."""
         mujoco.mj_forward(self.model, self.data)
-        bodies, found, n = self.arm.body_ids, [], self.data.ncon
+        bodies, found, n = self.arm.body_ids, self._below_ground(), self.data.ncon
         for (g1, g2), dist in zip(self.data.contact.geom[:n].tolist(), self.data.contact.dist[:n].tolist()):
             a, b = (int(self.model.geom_bodyid[g]) for g in (g1, g2))
             if (a in bodies) != (b in bodies):
                 mine, other = (a, b) if a in bodies else (b, a)
                 found.append((self.arm.link_name(mine), self._body_label(other), float(dist)))
+        return found
+
+    def _below_ground(self) -> list[tuple[str, str, float]]:
+        ground = self.model.geom("ground").id
+        robot = np.flatnonzero(np.isin(self.model.geom_bodyid, list(self.arm.body_ids)))
+        found = []
+        for geom in robot.tolist():
+            distance = mujoco.mj_geomDistance(self.model, self.data, geom, ground, 0.01, None)
+            if distance < 0.0:
+                found.append((self.arm.link_name(int(self.model.geom_bodyid[geom])), "the ground", float(distance)))
         return found
 
     def _body_label(self, body: int) -> str:

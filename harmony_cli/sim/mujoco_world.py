@@ -50,6 +50,10 @@ PAD_PRIORITY, BOX_PRIORITY = 2, 1
 TORSIONAL_CONDIM = 4  # normal, two tangents and spinning about the normal
 ROLLING = 1e-4  # rolling friction (unused with condim <= 4; MuJoCo's default)
 BOX_MASS = 0.8  # [kg] BoxSpec's default: the pads' effective mass without a box
+# the ground touches the box and the scene (contype / conaffinity 1) but not the robot (its geoms: 2 / 1), which
+# stands on its virtual base joints: a foot or pedestal resting on the floor would otherwise press into it through
+# the rigid chain and hold the base by friction
+GROUND_CONTYPE, GROUND_CONAFFINITY = 0, 1
 GEOM = mujoco.mjtGeom
 _TABLE_RGBA, _OBSTACLE_RGBA, _BOX_RGBA = [0.55, 0.45, 0.35, 1], [0.7, 0.2, 0.2, 1], [0.85, 0.6, 0.3, 1]
 
@@ -108,7 +112,14 @@ def set_pad_contacts(
 def add_world(spec: mujoco.MjSpec, world: WorldSpec | None, sim_spec: SimSpec) -> None:
     """Add the ground, and the scene of `world` if any, to `spec`; set `contact_options`."""
     contact_options(spec, sim_spec)
-    spec.worldbody.add_geom(name="ground", type=GEOM.mjGEOM_PLANE, size=[0.0, 0.0, 1.0], rgba=[0.8, 0.8, 0.8, 1])
+    spec.worldbody.add_geom(
+        name="ground",
+        type=GEOM.mjGEOM_PLANE,
+        size=[0.0, 0.0, 1.0],
+        rgba=[0.8, 0.8, 0.8, 1],
+        contype=GROUND_CONTYPE,
+        conaffinity=GROUND_CONAFFINITY,
+    )
     if world is None:
         return
     for table in world.tables:
