@@ -242,7 +242,7 @@ def test_a_base_jump_fails_the_run_as_diverged(monkeypatch, tmp_path):
     assert (summary["failure"], len(steps)) == ("diverged", 22) and "to t = 0.42 s" in summary["reason"]
 
 
-@pytest.mark.parametrize("engine", ["pybullet", "mujoco"])
+@pytest.mark.parametrize("engine", [pytest.param("pybullet", marks=needs_pybullet), "mujoco"])
 def test_a_robot_starting_inside_an_obstacle_is_refused_before_the_loop(tmp_path, engine):
     block = "world.obstacles=[{name: block, shape: box, position: [0.0, 0.0, 0.3], size: [0.4, 0.4, 0.4]}]"
     code, lines, summary, steps = _run(tmp_path / "run", block, f"sim.engine={engine}")
