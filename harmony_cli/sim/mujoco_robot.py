@@ -214,6 +214,12 @@ class MujocoRobot:
             mujoco.mj_step(self.model, self.data)
         mujoco.mj_forward(self.model, self.data)
 
+    def place(self, joints: dict[str, float]) -> None:
+        """Joint positions by name (those of the robot's joints; others ignored), without physics."""
+        for name, value in joints.items():
+            if name in self.robot.joint_names:
+                self.data.qpos[self.qpos[self.robot.joint_names.index(name)]] = value
+
     def q(self) -> np.ndarray:
         return self.data.qpos[self.qpos].copy()
 

@@ -149,6 +149,15 @@ class MujocoSimulation:
         kind, _, rest = name.partition(":")
         return f"{kind} {rest}" if kind in ("table", "obstacle") else f"body {name}"
 
+    def show(self, joints: dict[str, float], box_pose: np.ndarray | None, t: float) -> None:
+        """A logged state put in place without physics (replays): joints by name, the box's centre and (x, y, z, w)
+        quaternion, the moving obstacles at time t."""
+        self.arm.place(joints)
+        if box_pose is not None:
+            self.world.place_box(box_pose[:3], box_pose[3:])
+        self.world.move_obstacles(t)
+        mujoco.mj_forward(self.model, self.data)
+
     def camera(self, size: tuple[int, int], follow: Callable[[], np.ndarray]) -> Callable[[], np.ndarray]:
         from harmony_cli.sim.mujoco_camera import MujocoCamera  # an OpenGL context only when a video is asked for
 

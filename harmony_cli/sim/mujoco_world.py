@@ -240,6 +240,11 @@ class MujocoWorld:
         q = self.data.qpos[self._box_qpos : self._box_qpos + 7]
         return q[:3].copy(), q[3:7] / np.linalg.norm(q[3:7])
 
+    def place_box(self, centre: np.ndarray, quaternion_xyzw: np.ndarray) -> None:
+        """The box where a log had it (centre, PyBullet's (x, y, z, w) quaternion), without physics."""
+        assert self._box_qpos is not None, "no box in this world"
+        self.data.qpos[self._box_qpos : self._box_qpos + 7] = np.r_[centre, np.roll(quaternion_xyzw, 1)]
+
     def box_pose(self) -> tuple[np.ndarray, float]:
         """The box's centre and yaw (PyBullet's roll-pitch-yaw yaw)."""
         centre, (w, x, y, z) = self._box_qpos_now()
