@@ -156,3 +156,17 @@ def test_runs_of_different_scenes_are_refused(fast_run, tmp_path):
     (other / "scenario.resolved.yaml").write_text(text.replace("tables: []", "tables: [{name: t, position: [3, 0]}]"))
     result = runner.invoke(app, ["view", str(fast_run), str(other), "--no-browser"])
     assert result.exit_code == 2 and str(other) in result.output and "not the scene of" in result.output
+
+
+def test_a_mujoco_run_s_video_is_rendered_after_the_fact_in_mujoco(tmp_path):
+    """`--video` of a MuJoCo run draws its logged states in MuJoCo: one frame per 0.1 s, the robot in view."""
+    import imageio.v3 as iio
+
+    out = tmp_path / "run"
+    result = runner.invoke(app, ["run", str(SMOKE), "--out", str(out), "--quiet", "--set", "sim.engine=mujoco", *FAST])
+    assert result.exit_code == 0, result.output
+    result = runner.invoke(app, ["view", str(out), "--video", str(tmp_path / "replay.gif")])
+    assert result.exit_code == 0, result.output
+    frames = iio.imread(tmp_path / "replay.gif", index=None)
+    assert len(frames) == 10 and all(frame[..., :3].std() > 10 for frame in frames)
+    assert np.abs(frames[-1].astype(int) - frames[0].astype(int)).max() > 50  # the robot moved between them
