@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 import pytest
+import yaml
 from browser import page, project, require_chromium, shot
 from conftest import SMOKE, assert_exit_follows_outcome
 from typer.testing import CliRunner
@@ -170,3 +171,12 @@ def test_a_mujoco_run_s_video_is_rendered_after_the_fact_in_mujoco(tmp_path):
     frames = iio.imread(tmp_path / "replay.gif", index=None)
     assert len(frames) == 10 and all(frame[..., :3].std() > 10 for frame in frames)
     assert np.abs(frames[-1].astype(int) - frames[0].astype(int)).max() > 50  # the robot moved between them
+
+
+def test_a_video_of_a_run_whose_engine_this_python_lacks_is_refused_in_one_line(fast_run, tmp_path, monkeypatch):
+    engine = yaml.safe_load((fast_run / "scenario.resolved.yaml").read_text())["sim"]["engine"]
+    other = "mujoco" if engine == "pybullet" else "pybullet"
+    monkeypatch.setattr("harmony_cli.commands.view.installed_engines", lambda: [other])
+    result = runner.invoke(app, ["view", str(fast_run), "--video", str(tmp_path / "replay.gif")])
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
+    assert f"ran in {engine}, which this Python" in result.output and not (tmp_path / "replay.gif").exists()

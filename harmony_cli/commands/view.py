@@ -33,16 +33,17 @@ def view(
         fail(f"view --export: {str(export)!r} must end in .html")
     if video is not None and video.suffix.lower() not in VIDEO_SUFFIXES:
         fail(f"view --video: {str(video)!r} must end in one of {', '.join(VIDEO_SUFFIXES)}")
-    if video is not None and "pybullet" not in installed_engines():  # view/video.py draws with PyBullet
-        fail(
-            f"view --video: renders with PyBullet, which this Python ({platform.python_version()}) does not have; "
-            "`harmony run --video` records one in either engine"
-        )
     try:
         loaded = load_runs(runs)
     except NotARun as exc:
         fail(str(exc))
         return
+    engine = loaded[0].scenario.sim.engine
+    if video is not None and engine not in installed_engines():  # a run is drawn in the engine it ran in
+        fail(
+            f"view --video: {runs[0]} ran in {engine}, which this Python ({platform.python_version()}) does not have; "
+            "`harmony run --video` records a video in either engine"
+        )
     if video is not None:
         from harmony_cli.view.video import render_video
 
