@@ -51,3 +51,13 @@ HAS_PYBULLET = importlib.util.find_spec("pybullet") is not None
 needs_pybullet = pytest.mark.skipif(
     not HAS_PYBULLET, reason="needs PyBullet, which has no wheels for this Python (> 3.11): MuJoCo alone"
 )
+
+
+def swinging(robot, t: float):
+    """(q, qd) of EVA's arms swinging at t: LARM_JOINT1 and RARM_JOINT3 0.4 sin(2t) rad about home, the rest at
+    home (wrist-sensing tests: the tools' m a, hands up to ~0.15 m/s)."""
+    q, qd = robot.home.copy(), np.zeros(robot.n_dof)
+    for joint in ("LARM_JOINT1", "RARM_JOINT3"):
+        q[robot.index(joint)] += 0.4 * np.sin(2 * t)
+        qd[robot.index(joint)] = 0.8 * np.cos(2 * t)
+    return q, qd

@@ -7,7 +7,7 @@ import functools
 
 import numpy as np
 import pytest
-from conftest import ROOT, needs_pybullet
+from conftest import ROOT, needs_pybullet, swinging
 from test_joint_chains import _robot
 
 from harmony_cli.scenario import load_scenario, robot_of
@@ -187,11 +187,7 @@ def test_an_unloaded_tool_reads_zero_while_the_arms_swing(eva):
     # the tool's weight (3 N) and its m a (hands up to ~0.15 m/s) are compensated with MuJoCo's own accelerations
     sim, worst = _bound(eva), 0.0
     for step in range(round(2.0 / SIM.control_dt)):
-        t, q, qd = step * SIM.control_dt, eva.home.copy(), np.zeros(eva.n_dof)
-        for joint in ("LARM_JOINT1", "RARM_JOINT3"):
-            q[eva.index(joint)] += 0.4 * np.sin(2 * t)
-            qd[eva.index(joint)] = 0.8 * np.cos(2 * t)
-        sim.apply(q, qd)
+        sim.apply(*swinging(eva, step * SIM.control_dt))
         sim.step(SUBSTEPS)
         worst = max(worst, np.abs(sim.wrenches()).max())
     assert worst < 1e-6, worst

@@ -3,7 +3,7 @@ weight, a squeeze reads what the pad's contacts carry, and a wrong sensor joint 
 
 import numpy as np
 import pytest
-from conftest import ROOT, TABLE1, assert_rejected, needs_pybullet
+from conftest import ROOT, TABLE1, assert_rejected, needs_pybullet, swinging
 
 from harmony_cli.robot.urdf import wrist_sensor_joints
 from harmony_cli.scenario import load_scenario
@@ -70,11 +70,7 @@ def test_no_load_reads_zero_while_the_arms_swing_and_inertia_compensation_is_wha
         sim.wrists.inertia = inertia
         forces = []
         for step in range(100):
-            t, q, qd = step * SIM.control_dt, eva.home.copy(), np.zeros(eva.n_dof)
-            for joint in ("LARM_JOINT1", "RARM_JOINT3"):
-                q[eva.index(joint)] += 0.4 * np.sin(2 * t)
-                qd[eva.index(joint)] = 0.8 * np.cos(2 * t)
-            sim.apply(q, qd)
+            sim.apply(*swinging(eva, step * SIM.control_dt))
             sim.step(SUBSTEPS)
             forces.append(np.linalg.norm(sim.observe().wrenches[:, :3], axis=1))
         sim.close()

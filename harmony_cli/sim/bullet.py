@@ -19,7 +19,7 @@ from harmony_cli.sim.contacts import pad_contacts
 from harmony_cli.sim.motors import efforts
 from harmony_cli.sim.pushes import Pushes
 from harmony_cli.sim.touches import Touches
-from harmony_cli.sim.truth import Truth
+from harmony_cli.sim.truth import BoxTruth, Truth, assemble
 from harmony_cli.sim.world import BODY_FLAGS, World
 from harmony_cli.sim.wrench import WristSensors, rotation_matrices
 
@@ -109,40 +109,23 @@ class BulletSimulation:
     def truth(self) -> Truth:
         """Ground truth for the logs (never for the controllers)."""
         world = self.world
-        centre, z_axis, pose, touching, pads = None, None, None, False, None
-        others: tuple[str, ...] = ()
-        positions: dict[str, np.ndarray] = {}
-        robot: dict[str, float] = {}
-        carried: dict[str, float] = {}
-        if world is not None:
-            if world.box is not None:
-                centre, z_axis, quaternion = world.box_state()
-                pose = np.concatenate([centre, quaternion])
-                contacts = self.client.getContactPoints(bodyA=world.box, bodyB=self.body)  # whether, and where
-                rotation = rotation_matrices([quaternion])[0]
-                pads = pad_contacts(
-                    contacts, self._hands_of_tool_link, len(self.hand_links), rotation, self.pad_friction
-                )
-                touching = len(contacts) > 0
-                others = tuple(self._link_name(link) for link in pads.other_links)
-                carried = world.clearances(world.box)
-            positions = {name: world.obstacle_position(name) for name in world.moving}
-            robot = world.clearances(self.body)
-        touches, nan = self.touches, float("nan")
-        return Truth(
-            box_position=centre,
-            box_z_axis=z_axis,
-            box_pose=pose,
-            box_touches_robot=touching,
-            pad_contacts=pads,
-            box_on_links=others,
-            push_N=self.pushes.magnitudes(self.time),
-            obstacle_positions=positions,
-            clearance_robot_m=robot,
-            clearance_box_m=carried,
-            contact_robot_m={name: touches.robot_m.get(name, nan) for name in touches.robot_bodies},
-            contact_box_m={name: touches.box_m.get(name, nan) for name in touches.box_bodies},
+        if world is None:
+            return assemble(None, self.pushes.magnitudes(self.time), {}, {}, self.touches)
+        return assemble(
+            None if world.box is None else self._box_truth(world, world.box),
+            self.pushes.magnitudes(self.time),
+            {name: world.obstacle_position(name) for name in world.moving},
+            world.clearances(self.body),
+            self.touches,
         )
+
+    def _box_truth(self, world: World, box: int) -> BoxTruth:
+        centre, z_axis, quaternion = world.box_state()
+        contacts = self.client.getContactPoints(bodyA=box, bodyB=self.body)  # whether, and where
+        rotation = rotation_matrices([quaternion])[0]
+        pads = pad_contacts(contacts, self._hands_of_tool_link, len(self.hand_links), rotation, self.pad_friction)
+        others = tuple(self._link_name(link) for link in pads.other_links)
+        return BoxTruth(centre, z_axis, quaternion, len(contacts) > 0, pads, others, world.clearances(box))
 
     def apply(self, q_target: np.ndarray, qd_target: np.ndarray) -> None:
         base = [self.joints[i] for i in self.base]

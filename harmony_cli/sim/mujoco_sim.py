@@ -13,7 +13,7 @@ from harmony_cli.sim.mujoco_contacts import MujocoTouches
 from harmony_cli.sim.mujoco_pushes import MujocoPushes
 from harmony_cli.sim.mujoco_robot import MujocoRobot, robot_spec, tool_bodies
 from harmony_cli.sim.mujoco_world import MujocoWorld, add_world, set_pad_contacts
-from harmony_cli.sim.truth import Truth
+from harmony_cli.sim.truth import BoxTruth, Truth, assemble
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Sequence
@@ -69,32 +69,22 @@ class MujocoSimulation:
         )
 
     def truth(self) -> Truth:
-        world, touches, nan = self.world, self.touches, float("nan")
-        centre = z_axis = pose = pads = None
-        touching = False
-        others: tuple[str, ...] = ()
-        carried: dict[str, float] = {}
-        if world.box is not None:
-            centre, z_axis, quaternion = world.box_state()
-            pose = np.concatenate([centre, quaternion])
-            pads = world.pad_contacts(self.tools, self.arm.body_ids, self.pad_friction)
-            touching = bool(pads.points.sum() > 0 or pads.other_links)
-            others = tuple(self.arm.link_name(body) for body in pads.other_links)
-            carried = world.clearances({world.box})
-        return Truth(
-            box_position=centre,
-            box_z_axis=z_axis,
-            box_pose=pose,
-            box_touches_robot=touching,
-            pad_contacts=pads,
-            box_on_links=others,
-            push_N=self.pushes.magnitudes(self.time),
-            obstacle_positions={name: world.obstacle_position(name) for name in world.moving},
-            clearance_robot_m=world.clearances(self.arm.body_ids),
-            clearance_box_m=carried,
-            contact_robot_m={name: touches.robot_m.get(name, nan) for name in touches.robot_bodies},
-            contact_box_m={name: touches.box_m.get(name, nan) for name in touches.box_bodies},
+        world = self.world
+        return assemble(
+            None if world.box is None else self._box_truth(world.box),
+            self.pushes.magnitudes(self.time),
+            {name: world.obstacle_position(name) for name in world.moving},
+            world.clearances(self.arm.body_ids),
+            self.touches,
         )
+
+    def _box_truth(self, box: int) -> BoxTruth:
+        world = self.world
+        centre, z_axis, quaternion = world.box_state()
+        pads = world.pad_contacts(self.tools, self.arm.body_ids, self.pad_friction)
+        touching = bool(pads.points.sum() > 0 or pads.other_links)
+        others = tuple(self.arm.link_name(body) for body in pads.other_links)
+        return BoxTruth(centre, z_axis, quaternion, touching, pads, others, world.clearances({box}))
 
     def apply(self, q_target: np.ndarray, qd_target: np.ndarray) -> None:
         self.arm.apply(q_target, qd_target)
