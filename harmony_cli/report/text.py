@@ -1,4 +1,4 @@
-"""Results as text: number formatting the tables share, and the lines `harmony run` prints for a run."""
+"""Results as text: number and cell formatting the tables share, and the lines `harmony run` prints for a run."""
 
 from __future__ import annotations
 
@@ -7,6 +7,11 @@ from pathlib import Path
 from harmony_cli.report.metrics import baseline_peak
 from harmony_cli.report.summary import task_warning
 from harmony_cli.report.tracking import tracking_failed
+
+
+def markdown_cell(text, width: int = 160) -> str:
+    """A value as one Markdown table cell: no pipes, no line breaks, at most `width` characters ("" for none)."""
+    return "" if text is None or text != text else str(text).replace("|", "/").replace("\n", " ")[:width]
 
 
 def fmt(v: float | None, unit: str, scale: float = 1.0, missing: str = "-", digits: int = 2) -> str:

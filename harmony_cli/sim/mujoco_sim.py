@@ -30,7 +30,7 @@ class MujocoSimulation:
     def __init__(
         self, robot: Robot, sim_spec: SimSpec, world: WorldSpec | None = None, pushes: Sequence[PushSpec] = ()
     ):
-        self.robot, self.spec = robot, sim_spec
+        self.spec = sim_spec
         spec = robot_spec(robot, sim_spec)
         add_world(spec, world, sim_spec)
         set_pad_contacts(spec, tool_bodies(spec, robot), sim_spec, world.box if world is not None else None)

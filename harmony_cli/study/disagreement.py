@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import pandas as pd
 
+from harmony_cli.report.text import markdown_cell
 from harmony_cli.study.table import IMPOSSIBLE
 
 
@@ -44,9 +45,5 @@ def disagreement_lines(table: pd.DataFrame) -> list[str]:
     lines += ["| sample | " + " | ".join(points) + " | why it did not succeed |", "|---:|" + "---|" * (len(points) + 1)]
     for sample, row in differ.iterrows():
         why = "; ".join(f"{p}: {row[f'{p} reason']}" for p in points if isinstance(row[f"{p} reason"], str))
-        lines.append(f"| {sample} | " + " | ".join(str(row[p]) for p in points) + f" | {_cell(why)} |")
+        lines.append(f"| {sample} | " + " | ".join(str(row[p]) for p in points) + f" | {markdown_cell(why, 240)} |")
     return lines
-
-
-def _cell(text: str) -> str:
-    return text.replace("|", "/").replace("\n", " ")[:240]

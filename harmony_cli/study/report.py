@@ -18,6 +18,7 @@ import yaml
 from scipy.stats import binomtest
 
 from harmony_cli.report.figure import plt, save
+from harmony_cli.report.text import markdown_cell
 from harmony_cli.study.disagreement import disagreement_lines
 from harmony_cli.study.draw_map import draw_map
 from harmony_cli.study.table import IMPOSSIBLE, SUCCESS, SUCCESS_LATE, TABLE
@@ -168,7 +169,7 @@ def write_report(study: Path) -> list[Path]:
         header = "| sample | grid point | outcome | reason | look at it | run it again |"
         lines += [header, "|---:|---|---|---|---|---|"]
         lines += [
-            f"| {r['sample']} | {r['point']} | {r['outcome']} | {_cell(r['reason'])} | "
+            f"| {r['sample']} | {r['point']} | {r['outcome']} | {markdown_cell(r['reason'])} | "
             f"`harmony view {r['run_dir']}` | `harmony run {r['run_dir']}/scenario.resolved.yaml` |"
             for _, r in failed.sort_values(["sample", "point"]).iterrows()
         ]
@@ -183,10 +184,6 @@ def write_report(study: Path) -> list[Path]:
     report = study / "report.md"
     report.write_text("\n".join(lines) + "\n")
     return [report, *figures]
-
-
-def _cell(text) -> str:
-    return "" if text is None or text != text else str(text).replace("|", "/").replace("\n", " ")[:160]
 
 
 def _markdown(frame: pd.DataFrame) -> str:
