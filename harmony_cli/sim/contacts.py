@@ -9,7 +9,7 @@ the normal it was made with and pushes the box sideways."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,6 +33,48 @@ class PadContacts:
     other_links: tuple[int, ...] = ()  # those links (PyBullet indices), in order
 
 
+@dataclass(frozen=True)
+class ContactPoint:
+    """One contact of the box with a robot link, as an engine reports it: the link, the contact normal (unit, in the
+    world), its normal force [N] and its friction force (a vector in the contact plane) [N]."""
+
+    link: int
+    normal: np.ndarray
+    normal_N: float
+    friction_N: np.ndarray
+
+
+def summarise(
+    contacts: Iterable[ContactPoint],
+    hands_of_link: dict[int, list[int]],
+    n_hands: int,
+    box_rotation: np.ndarray,
+    friction: float,
+) -> PadContacts:
+    """`hands_of_link`: the hands whose pads a robot link is (links of no hand are summed apart); `box_rotation`
+    (3, 3): the box's orientation; `friction`: the pad-box coefficient the engine uses."""
+    points = np.zeros(n_hands, dtype=int)
+    normal, force = np.zeros(n_hands), np.zeros((n_hands, 3))
+    off = np.full(n_hands, np.nan)
+    other, others = 0.0, set()
+    for point in contacts:
+        if point.link not in hands_of_link:
+            other += point.normal_N
+            others.add(point.link)
+            continue
+        # a face's normal is a column of the box's rotation: the largest |cosine| is the nearest face
+        angle = float(np.degrees(np.arccos(min(1.0, float(np.abs(box_rotation.T @ point.normal).max())))))
+        for h in hands_of_link[point.link]:
+            points[h] += 1
+            normal[h] += point.normal_N
+            force[h] += point.friction_N
+            off[h] = angle if np.isnan(off[h]) else max(off[h], angle)
+    pressing = normal > 0.0
+    used = np.full(n_hands, np.nan)
+    used[pressing] = np.linalg.norm(force[pressing], axis=1) / (friction * normal[pressing])
+    return PadContacts(points, normal, used, off, float(other), tuple(sorted(others)))
+
+
 def pad_contacts(
     contacts: Sequence[tuple],
     hands_of_link: dict[int, list[int]],
@@ -40,30 +82,21 @@ def pad_contacts(
     box_rotation: np.ndarray,
     friction: float,
 ) -> PadContacts:
-    """`contacts`: PyBullet's contact points of the box (A) with the robot (B); `hands_of_link`: the hands whose
-    pads a robot link is (links of no hand are summed apart); `box_rotation` (3, 3): the box's orientation;
-    `friction`: the coefficient PyBullet uses between pad and box (the product of the two bodies' lateral
-    frictions)."""
-    points = np.zeros(n_hands, dtype=int)
-    normal, force = np.zeros(n_hands), np.zeros((n_hands, 3))
-    off = np.full(n_hands, np.nan)
-    other, others = 0.0, set()
-    for point in contacts:
-        if point[LINK_B] not in hands_of_link:
-            other += point[NORMAL_FORCE]
-            others.add(point[LINK_B])
-            continue
-        n = np.asarray(point[NORMAL_ON_B])
-        tangential = point[FRICTION_1] * np.asarray(point[FRICTION_DIR_1])
-        tangential = tangential + point[FRICTION_2] * np.asarray(point[FRICTION_DIR_2])
-        # a face's normal is a column of the box's rotation: the largest |cosine| is the nearest face
-        angle = float(np.degrees(np.arccos(min(1.0, float(np.abs(box_rotation.T @ n).max())))))
-        for h in hands_of_link.get(point[LINK_B], ()):
-            points[h] += 1
-            normal[h] += point[NORMAL_FORCE]
-            force[h] += tangential
-            off[h] = angle if np.isnan(off[h]) else max(off[h], angle)
-    pressing = normal > 0.0
-    used = np.full(n_hands, np.nan)
-    used[pressing] = np.linalg.norm(force[pressing], axis=1) / (friction * normal[pressing])
-    return PadContacts(points, normal, used, off, float(other), tuple(sorted(others)))
+    """`contacts`: PyBullet's contact points of the box (A) with the robot (B), summarised; `friction`: the
+    coefficient PyBullet uses between pad and box (the product of the two bodies' lateral frictions)."""
+    return summarise(
+        (
+            ContactPoint(
+                point[LINK_B],
+                np.asarray(point[NORMAL_ON_B]),
+                point[NORMAL_FORCE],
+                point[FRICTION_1] * np.asarray(point[FRICTION_DIR_1])
+                + point[FRICTION_2] * np.asarray(point[FRICTION_DIR_2]),
+            )
+            for point in contacts
+        ),
+        hands_of_link,
+        n_hands,
+        box_rotation,
+        friction,
+    )

@@ -12,10 +12,10 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
-from harmony_cli.sim.contacts import PadContacts
+from harmony_cli.sim.contacts import ContactPoint, PadContacts, summarise
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
+    from collections.abc import Iterator, Sequence
 
     from harmony_cli.sim.mujoco_world import MujocoWorld
 
@@ -76,23 +76,31 @@ def mujoco_pad_contacts(
     robot_bodies: set[int],
     friction: float,
 ) -> PadContacts:
-    """The box's contacts with the robot as PadContacts: per hand (the bodies below its wrist sensor), its pads'
-    contact points, their normal forces summed [N], |their summed friction force| / (friction x that sum) and the
-    largest angle of a contact normal from the box's nearest face normal [deg]; beside them the normal force on
-    robot bodies of no hand and those bodies (MuJoCo body ids). `friction`: the pad-box coefficient."""
+    """The box's contacts with the robot (touching or inside) summarised as sim/contacts.py does for PyBullet: per
+    hand (the bodies below its wrist sensor) its pads' points, forces, friction used and normals' angle off the box's
+    faces; beside them the robot bodies of no hand (MuJoCo body ids). `friction`: the pad-box coefficient."""
     model, data, box = world.model, world.data, world.box
-    n_hands = len(tool_bodies_per_hand)
     hands_of_body: dict[int, list[int]] = {}
     for h, bodies in enumerate(tool_bodies_per_hand):
         for b in bodies:
             hands_of_body.setdefault(b, []).append(h)
-    points = np.zeros(n_hands, dtype=int)
-    normal, force = np.zeros(n_hands), np.zeros((n_hands, 3))
-    off = np.full(n_hands, np.nan)
-    other, others = 0.0, set()
     rotation = np.zeros(9)
     mujoco.mju_quat2Mat(rotation, np.roll(world.box_state()[2], 1))
-    box_rotation, wrench = rotation.reshape(3, 3), np.zeros(6)
+    return summarise(
+        _box_contacts(model, data, box, robot_bodies),
+        hands_of_body,
+        len(tool_bodies_per_hand),
+        rotation.reshape(3, 3),
+        friction,
+    )
+
+
+def _box_contacts(
+    model: mujoco.MjModel, data: mujoco.MjData, box: int | None, robot_bodies: set[int]
+) -> Iterator[ContactPoint]:
+    """The box's contacts with robot bodies as ContactPoints (normal and friction from mj_contactForce in the
+    contact's frame: its rows are the normal and the two tangents)."""
+    wrench = np.zeros(6)
     for i in range(data.ncon):
         contact = data.contact[i]
         b1, b2 = (int(model.geom_bodyid[g]) for g in contact.geom)
@@ -101,18 +109,4 @@ def mujoco_pad_contacts(
             continue
         mujoco.mj_contactForce(model, data, i, wrench)
         frame = contact.frame.reshape(3, 3)
-        if robot_body not in hands_of_body:
-            other += wrench[0]
-            others.add(robot_body)
-            continue
-        # a face's normal is a column of the box's rotation: the largest |cosine| is the nearest face
-        angle = float(np.degrees(np.arccos(min(1.0, float(np.abs(box_rotation.T @ frame[0]).max())))))
-        for h in hands_of_body[robot_body]:
-            points[h] += 1
-            normal[h] += wrench[0]
-            force[h] += wrench[1] * frame[1] + wrench[2] * frame[2]
-            off[h] = angle if np.isnan(off[h]) else max(off[h], angle)
-    pressing = normal > 0.0
-    used = np.full(n_hands, np.nan)
-    used[pressing] = np.linalg.norm(force[pressing], axis=1) / (friction * normal[pressing])
-    return PadContacts(points, normal, used, off, float(other), tuple(sorted(others)))
+        yield ContactPoint(robot_body, frame[0].copy(), float(wrench[0]), wrench[1] * frame[1] + wrench[2] * frame[2])
