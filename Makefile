@@ -5,7 +5,7 @@ STAMP := $(VENV)/.installed
 HARMONY := $(VENV)/bin/harmony
 TABLE1 := scenarios/paper/table1_s_shape.yaml
 
-.PHONY: install lint test test-slow bench reproduce-paper engines robots-unedited study study-validation docs clean
+.PHONY: install lint test test-slow bench reproduce-paper engines robots-unedited study study-validation study-engines docs clean
 
 # Ranges live in pyproject.toml; constraints.txt pins the versions every install uses (refresh it with
 # `.venv/bin/pip freeze | grep -v '^-e' > constraints.txt` after a deliberate upgrade).
@@ -38,7 +38,7 @@ test-slow: $(STAMP)
 	$(VENV)/bin/pytest -q -m slow
 
 bench: $(STAMP)
-	$(HARMONY) bench --scenario $(TABLE1) --out results/bench/bench.json
+	$(HARMONY) bench --scenario $(TABLE1) --out results/bench/bench.json --engine pybullet --engine mujoco
 
 EXPERIMENTS := pick_and_carry static_obstacles narrow_passage dynamic_obstacle
 ROBOTS := pr2 tiago_dual baxter
@@ -106,6 +106,11 @@ study: $(STAMP)
 
 study-validation: $(STAMP)
 	$(HARMONY) study studies/pick_and_carry_random.yaml --draws validation --jobs 2
+
+# the validation draws in both physics engines, side by side, with the draws where they disagree (~90 min)
+study-engines: $(STAMP)
+	$(HARMONY) study studies/pick_and_carry_random.yaml --draws validation --grid sim.engine=pybullet,mujoco \
+		--jobs 2 --out results/studies/pick_and_carry_engines/validation
 
 clean:
 	rm -rf results/runs results/compare results/bench results/robots_unedited/runs results/paper/runs results/paper/push_recovery results/paper/robots .pytest_cache .hypothesis

@@ -71,7 +71,7 @@ def run(
         "measure push displacements from it",
     ),
 ):
-    """Run one scenario closed loop in PyBullet and write a run directory."""
+    """Run one scenario closed loop in its physics engine (sim.engine) and write a run directory."""
     from harmony_cli.experiment.interrupts import RunInterrupted
     from harmony_cli.experiment.pipeline import RunFailed
     from harmony_cli.experiment.run import run_scenario
@@ -228,9 +228,12 @@ def bench(
         [Path(f"scenarios/paper/{name}.yaml") for name in EXPERIMENTS],
         help="Experiments timed closed loop, one after another (repeatable; '' to skip)",
     ),
+    engine: list[str] = typer.Option(
+        [], help="Physics engines the experiments run in, each in turn (repeatable; default: the scenario's)"
+    ),
 ):
     """Whole-body MPC solve time: both transcriptions x K x solver modes, side by side, with ratios; then each
-    experiment closed loop in PyBullet: its loop and each part of a step (median to max), wall time, real-time
+    experiment closed loop in each engine: its loop and each part of a step (median to max), wall time, real-time
     factor, beside the last bench's numbers from this machine."""
     from harmony_cli.experiment.bench import run_bench
     from harmony_cli.experiment.loop_bench import run_loop_bench
@@ -239,7 +242,7 @@ def bench(
     try:
         run_bench(scenario, list(knots), list(solver), steps, start, out)
         if all(str(path) for path in loop):
-            run_loop_bench(list(loop), out.with_name("loop.json") if out else None)
+            run_loop_bench(list(loop), out.with_name("loop.json") if out else None, engines=list(engine) or None)
     except (ScenarioError, SolverUnavailable) as exc:
         fail(str(exc))
 

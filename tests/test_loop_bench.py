@@ -3,7 +3,7 @@
 import io
 import json
 
-from conftest import SMOKE
+from conftest import SMOKE, needs_pybullet
 from rich.console import Console
 
 from harmony_cli.experiment.loop_bench import run_loop_bench
@@ -28,3 +28,12 @@ def test_loop_bench_reports_tails_and_real_time_factor_and_shows_the_last_bench_
     printed = io.StringIO()
     run_loop_bench([SMOKE], out, Console(file=printed, width=200))
     assert "last bench" in printed.getvalue() and "replay log (replay.npz) per step" in printed.getvalue()
+
+
+@needs_pybullet
+def test_loop_bench_runs_each_experiment_in_each_engine_it_is_given():
+    experiments = run_loop_bench([SMOKE], None, Console(file=io.StringIO()), ["mujoco", "pybullet"])["experiments"]
+    assert [e["engine"] for e in experiments] == ["mujoco", "pybullet"]
+    assert experiments[0]["name"].endswith("[mujoco]") and experiments[0]["steps"] == experiments[1]["steps"]
+    for e in experiments:
+        assert 0 < e["physics_pct_of_loop_wall"] < 100 and e["loop_wall_s"] < e["wall_s"]

@@ -9,9 +9,10 @@ from conftest import needs_pybullet
 from harmony_cli.scenario import load_scenario
 from harmony_cli.scenario.models import SimSpec
 from harmony_cli.scenario.world import PushSpec, WorldSpec
+from harmony_cli.sim.mujoco_contact_model import set_pad_contacts
 from harmony_cli.sim.mujoco_contacts import MujocoTouches
 from harmony_cli.sim.mujoco_pushes import MujocoPushes
-from harmony_cli.sim.mujoco_world import MujocoWorld, add_world, set_pad_contacts
+from harmony_cli.sim.mujoco_world import MujocoWorld, add_world
 from harmony_cli.tasks.motion import centre_at
 
 try:  # PyBullet has wheels up to Python 3.11 only: the tests that use it are marked needs_pybullet
@@ -169,8 +170,9 @@ def test_box_pressed_against_an_obstacle_and_a_ball_on_the_table_are_touches():
     assert touches.robot_m == {} and touches.box_m == {}
 
 
-def test_compliant_pad_sinks_by_weight_over_stiffness():
-    sim = SimSpec(pad_stiffness=20000.0, pad_damping=100.0)
+def _ball_on_a_pad(sim: SimSpec) -> tuple[MujocoWorld, int, WorldSpec]:
+    """A ball of the box's mass resting on a compliant pad (a large plate at z 1.0), the ball's centre 1.1 above."""
+    world = WorldSpec.model_validate({"box": {"size": [BOX] * 3, "position": [0.0, 0.0, BOX / 2]}})
 
     def pad_floor(spec):
         pad = spec.worldbody.add_body(name="pad", pos=[5, 5, 0.9])
@@ -180,12 +182,30 @@ def test_compliant_pad_sinks_by_weight_over_stiffness():
         body.add_freejoint()
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.1, 0, 0], mass=world.box.mass)
 
-    world = WorldSpec.model_validate({"box": {"size": [BOX] * 3, "position": [0.0, 0.0, BOX / 2]}})
     w = _scene(world, sim, pad_floor)
+    return w, mujoco.mj_name2id(w.model, mujoco.mjtObj.mjOBJ_BODY, "ball"), world
+
+
+def test_compliant_pad_sinks_by_weight_over_stiffness():
+    sim = SimSpec(pad_stiffness=20000.0, pad_damping=100.0)
+    w, ball, world = _ball_on_a_pad(sim)
     _step(w, 2.0)
-    ball = mujoco.mj_name2id(w.model, mujoco.mjtObj.mjOBJ_BODY, "ball")
     sink = 1.1 - w.data.xpos[ball][2]
     assert sink == pytest.approx(world.box.mass * 9.81 / sim.pad_stiffness, rel=0.02)
+
+
+def test_compliant_pad_rings_down_with_its_damping_ratio():
+    sim = SimSpec(pad_stiffness=20000.0, pad_damping=100.0)
+    w, ball, world = _ball_on_a_pad(sim)
+    _step(w, 2.0)
+    z = w.model.jnt_qposadr[w.model.body_jntadr[ball]] + 2
+    rest = w.data.qpos[z]
+    pressed = 0.5 * world.box.mass * 9.81 / sim.pad_stiffness  # half the static sink: the ball stays on the pad
+    w.data.qpos[z], w.data.qvel[:] = rest - pressed, 0.0
+    heights = []
+    _step(w, 1.0, lambda: heights.append(w.data.qpos[z] - rest))
+    zeta = sim.pad_damping / (2.0 * np.sqrt(sim.pad_stiffness * world.box.mass))
+    assert max(heights) / pressed == pytest.approx(np.exp(-np.pi * zeta / np.sqrt(1.0 - zeta**2)), abs=0.03)
 
 
 def test_two_pads_squeezing_the_box_hold_it_by_friction():

@@ -320,3 +320,17 @@ def test_the_report_lists_the_draws_two_grid_points_disagree_on_with_each_reason
     assert "## Draws the grid points disagree on (2 of 4)" in report, report
     assert "| 1 | dropped | success | sim.engine=pybullet: pybullet says dropped |" in report
     assert "| 2 | success | stalled | sim.engine=mujoco: mujoco says stalled |" in report
+
+
+def test_a_grid_axis_from_the_command_line_crosses_every_sample_with_its_values(tmp_path):
+    plan = plan_study(STUDY, Options(out=tmp_path, samples=2, progress=False, grid=("mpc.knots=6,26",)))
+    assert [(run.sample.index, run.point) for run in plan.runs] == [
+        (0, {"mpc.knots": 6}),
+        (0, {"mpc.knots": 26}),
+        (1, {"mpc.knots": 6}),
+        (1, {"mpc.knots": 26}),
+    ]
+    with pytest.raises(ScenarioError, match="--grid 'mpc.knots'"):
+        plan_study(STUDY, Options(out=tmp_path, samples=2, progress=False, grid=("mpc.knots",)))
+    with pytest.raises(ScenarioError, match="both varied and a grid axis"):
+        plan_study(STUDY, Options(out=tmp_path, samples=2, progress=False, grid=("world.box.mass=1,2",)))

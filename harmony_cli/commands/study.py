@@ -26,6 +26,9 @@ def study(
     rerun: str = typer.Option("", help="Also run again: failed, interrupted or all (comma-separated)"),
     plots: str = typer.Option("failed", help="Per-run plots: none, failed (runs that did not succeed) or all"),
     quiet: bool = typer.Option(False, help="No progress bars"),
+    grid: list[str] = typer.Option(
+        [], help="A grid axis added to the study's, field=v1,v2,... (repeatable), e.g. sim.engine=pybullet,mujoco"
+    ),
 ):
     """Run a study (randomised scenes x grid, resumable) and write study.parquet and its report; or, as `harmony
     study report DIR`, write the report of a study directory again."""
@@ -45,7 +48,7 @@ def study(
     if plots not in PLOTS:
         fail(f"--plots: {plots!r} is not valid; choose one of: {', '.join(PLOTS)}")
     reruns = tuple(r for r in rerun.split(",") if r)
-    options = Options(out, jobs, ray, draws, seed, samples, reruns, plots, not quiet)
+    options = Options(out, jobs, ray, draws, seed, samples, reruns, plots, not quiet, tuple(grid))
     try:
         outcome = run_study(Path(target), options)
     except ScenarioError as exc:

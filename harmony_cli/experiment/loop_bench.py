@@ -1,6 +1,7 @@
-"""`harmony bench`'s closed-loop part: every experiment run closed loop in PyBullet, one after another in this
-process, timed from its steps.csv — the loop (observation to command) and each part of a step, with their tails —
-and the run's wall time and real-time factor, beside the last bench's numbers when this machine measured them."""
+"""`harmony bench`'s closed-loop part: every experiment run closed loop in each physics engine asked for, one after
+another in this process, timed from its steps.csv — the loop (observation to command) and each part of a step,
+with their tails — and the run's wall time and real-time factor, beside the last bench's numbers when this machine
+measured them."""
 
 from __future__ import annotations
 
@@ -29,24 +30,31 @@ def tail_stats(values) -> dict[str, float]:
     return {name: float(np.percentile(v, q)) for name, q in QUANTILES.items()} | {"max": float(v.max())}
 
 
-def time_experiment(path: Path) -> dict:
-    """One experiment closed loop (no video, its plots as `harmony run` makes them): its timing report."""
+def time_experiment(path: Path, engine: str | None = None) -> dict:
+    """One experiment closed loop (no video, its plots as `harmony run` makes them) in `engine` (None: the
+    scenario's): its timing report, named `<scenario name> [<engine>]`."""
     import pandas as pd
 
     from harmony_cli.experiment.run import run_scenario
+    from harmony_cli.scenario import load_scenario
 
+    overrides = [] if engine is None else [f"sim.engine={engine}"]
+    engine = load_scenario(path, overrides).sim.engine
     with tempfile.TemporaryDirectory() as tmp:
         start = time.perf_counter()
-        run_dir = run_scenario(path, [], Path(tmp) / "run", progress=False)
+        run_dir = run_scenario(path, overrides, Path(tmp) / "run", progress=False)
         wall = time.perf_counter() - start
         steps = pd.read_csv(run_dir / "steps.csv")
         summary = json.loads((run_dir / "summary.json").read_text())
     simulated = float(steps["t"].iloc[-1] - steps["t"].iloc[0]) + float(np.median(np.diff(steps["t"])))
     return {
         "scenario": str(path),
-        "name": summary["name"],
+        "name": f"{summary['name']} [{engine}]",
+        "engine": engine,
         "steps": len(steps),
         "wall_s": wall,
+        "loop_wall_s": summary["wall_time_s"],
+        "physics_pct_of_loop_wall": 100 * float(steps["previous_physics_ms"].sum()) / 1e3 / summary["wall_time_s"],
         "real_time_factor": simulated / wall,
         "success": summary.get("task", {}).get("success"),
         "parts_ms": {label: tail_stats(steps[column]) for column, label in PARTS.items() if column in steps},
@@ -82,19 +90,26 @@ def _row(label: str, stats: dict, before: dict | None) -> list[str]:
     return [label, *cells]
 
 
-def run_loop_bench(paths: list[Path], out: Path | None = None, console: Console | None = None) -> dict:
-    """Each experiment closed loop, one at a time; prints a table per experiment and writes `out` (JSON)."""
+def run_loop_bench(
+    paths: list[Path],
+    out: Path | None = None,
+    console: Console | None = None,
+    engines: list[str | None] | None = None,
+) -> dict:
+    """Each experiment closed loop in each of `engines` (default: the scenario's), one at a time; prints a table
+    per run and writes `out` (JSON)."""
     console = console or Console(width=160)
     meta = machine_meta(1)
     previous = _previous(out, meta)
     experiments = []
-    for path in paths:
-        console.print(f"[bold]{path}[/bold]: running closed loop ...")
-        report = time_experiment(path)
+    for path, engine in ((path, engine) for engine in engines or [None] for path in paths):
+        console.print(f"[bold]{path}[/bold]{f' in {engine}' if engine else ''}: running closed loop ...")
+        report = time_experiment(path, engine)
         experiments.append(report)
         before = previous.get(report["name"])
         table = Table(
-            title=f"{report['name']}: {report['steps']} steps, wall {report['wall_s']:.1f} s, "
+            title=f"{report['name']}: {report['steps']} steps, wall {report['wall_s']:.1f} s (closed loop "
+            f"{report['loop_wall_s']:.1f} s, physics {report['physics_pct_of_loop_wall']:.0f} % of it), "
             f"{report['real_time_factor']:.2f}x real time, success {report['success']} (ms)"
         )
         for column in ["", *QUANTILES, "max"] + (

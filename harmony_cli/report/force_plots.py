@@ -52,7 +52,7 @@ def _shade_push(ax, push: PushSpec, label: bool = True) -> None:
 
 
 def plot_forces(out: Path, steps: pd.DataFrame, hands: list[str], pushes: Sequence[PushSpec] = ()) -> Path:
-    """force_tracking.png: per hand, the sensed pad normal force (and PyBullet's pad-box contact force) against
+    """force_tracking.png: per hand, the sensed pad normal force (and the simulator's pad-box contact force) against
     the squeeze-force reference when logged; task phases shaded and labelled, pushes in red."""
     fig, axes = plt.subplots(len(hands), 1, figsize=(9, 2.6 * len(hands)), sharex=True, squeeze=False)
     for ax, hand in zip(axes[:, 0], hands):
@@ -63,7 +63,7 @@ def plot_forces(out: Path, steps: pd.DataFrame, hands: list[str], pushes: Sequen
             ax.plot(steps["t"], steps[f"{hand}_force_ref_N"], "k--", lw=1, label="reference")
         ax.plot(steps["t"], steps[f"{hand}_force_normal_N"], lw=1, label="measured (wrist sensor)")
         if f"{hand}_contact_N" in steps:
-            ax.plot(steps["t"], steps[f"{hand}_contact_N"], lw=0.6, alpha=0.6, label="pad-box contact (PyBullet)")
+            ax.plot(steps["t"], steps[f"{hand}_contact_N"], lw=0.6, alpha=0.6, label="pad-box contact (simulator)")
         ax.set(ylabel=f"{hand} normal force [N]")
         ax.legend(fontsize=7, loc="upper left")
     axes[-1, 0].set(xlabel="time [s]")
@@ -83,7 +83,7 @@ def plot_push(
     after: float = AFTER_PUSH_S,
 ) -> Path:
     """push_<name>.png: hand displacement (from the push-free run when logged, and from the live reference) and
-    pad normal forces (sensed, reference, PyBullet contact) around one push."""
+    pad normal forces (sensed, reference, the simulator's contact) around one push."""
     end = push.start + push.duration
     part = steps[(steps["t"] >= push.start - before) & (steps["t"] <= end + after)]
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 5), sharex=True)

@@ -223,7 +223,7 @@ def displacement_from_twin(steps: pd.DataFrame, twin: pd.DataFrame, hands: list[
 
 def _window(steps: pd.DataFrame, hands: list[str], focus: list[str], start: float, end: float) -> dict:
     """Over [start, end), per hand: peak displacement (from the push-free run when known, else from the live
-    reference), peak tracking error, peak sensed pad force (and PyBullet contact force); the recovery time of the
+    reference), peak tracking error, peak sensed pad force (and the simulator's contact force); the recovery time of the
     focus hands (the worse of them) from `start`."""
     part = steps[(steps["t"] >= start - 1e-9) & (steps["t"] < end - 1e-9)]
     if part.empty:
@@ -256,9 +256,9 @@ def push_outcome(
 ) -> dict:
     """Per push, over its window [start, end + after): peak hand displacement (from the push-free run when
     `{hand}_push_displacement_m` is logged, else `{hand}_error_m`), peak sensed pad normal force (and
-    PyBullet pad-box contact force when logged), recovery time of the pushed hand (the worse hand when the push is
-    not on a hand); `baseline`: the same over the equally long window just before the push. Top-level numbers are
-    the pushed (worse) hand's displacement and the larger pad force."""
+    the simulator's pad-box contact force when logged), recovery time of the pushed hand (the worse hand when the
+    push is not on a hand); `baseline`: the same over the equally long window just before the push. Top-level
+    numbers are the pushed (worse) hand's displacement and the larger pad force."""
     out = {}
     for push in pushes:
         hand = pushed_hands.get(push.name)

@@ -32,7 +32,7 @@ def _outline(shape, centre=None, **style):
 
 
 def _draw_obstacle(ax, spec: ObstacleSpec, steps: pd.DataFrame, colour: str = "indianred", label: str = "") -> None:
-    """A static obstacle; a moving one as its track (logged by PyBullet) with its outline where it started and
+    """A static obstacle; a moving one as its track (logged by the simulator) with its outline where it started and
     where it came closest to the robot, labelled with that time."""
 
     shape = obstacle_shape(spec)
@@ -113,7 +113,7 @@ def _draw_paths(ax, ax_t, label: str, steps: pd.DataFrame, scenario: Scenario, c
 def plot_paths_compared(path: Path, runs: dict[str, tuple[pd.DataFrame, Scenario]], title: str = "") -> Path:
     """Runs of one scene overlaid, one colour each. Left, top-down: base, hand and box paths with a dot every 2 s,
     and each run's obstacles (a moving one as its track; tables and static obstacles once). Right, against time:
-    how far the box (else the base) has gone, and the robot's PyBullet clearance to each moving obstacle."""
+    how far the box (else the base) has gone, and the robot's clearance (simulator) to each moving obstacle."""
     fig, (ax, ax_t) = plt.subplots(1, 2, figsize=(14, 6), gridspec_kw={"width_ratios": [1.6, 1]})
     first = next(iter(runs.values()))[1]  # the scene's tables
     for t in first.world.tables:

@@ -116,7 +116,7 @@ def _links_before(steps: pd.DataFrame, drop_s: float | None) -> str | None:
 
 
 def _friction_before(steps: pd.DataFrame, drop_s: float | None) -> str | None:
-    """The pads' largest use of their friction in the moments before a drop and, when PyBullet's contact normals
+    """The pads' largest use of their friction in the moments before a drop and, when the simulator's contact normals
     lay off the box's faces then, how far (sim/contacts.py); None without contact columns."""
     used_columns = [c for c in steps.columns if c.endswith("_friction_used")]
     before = _window(steps, drop_s)
@@ -129,7 +129,7 @@ def _friction_before(steps: pd.DataFrame, drop_s: float | None) -> str | None:
     off_columns = [c for c in steps.columns if c.endswith("_contact_normal_off_face_deg")]
     off = float(np.nanmax(before[off_columns].to_numpy(float), initial=-np.inf))
     if off > NORMAL_OFF_FACE_DEG:
-        text += f", PyBullet's contact normals up to {off:.0f} deg off the box's faces"
+        text += f", the simulator's contact normals up to {off:.0f} deg off the box's faces"
     return text
 
 

@@ -1,5 +1,5 @@
 """Who touched what and when, from a run's per-step table: the robot with a table or an obstacle, the box with an
-obstacle. A step touches when PyBullet reported a contact point (`contact_<who>_<name>_m`, the deepest contact
+obstacle. A step touches when the simulator reported a contact point (`contact_<who>_<name>_m`, the deepest contact
 distance, empty without one; sim/touches.py) or when the closest-point distance is <= 0
 (`clearance_<who>_<name>_m`). Both are read: the contact points are taken after every physics step, the closest
 points once per control step, and each can see a touch the other misses."""

@@ -100,13 +100,16 @@ def _box_contacts(
 ) -> Iterator[ContactPoint]:
     """The box's contacts with robot bodies as ContactPoints (normal and friction from mj_contactForce in the
     contact's frame: its rows are the normal and the two tangents)."""
-    wrench = np.zeros(6)
-    for i in range(data.ncon):
-        contact = data.contact[i]
-        b1, b2 = (int(model.geom_bodyid[g]) for g in contact.geom)
-        robot_body = b2 if b1 == box else b1 if b2 == box else None
-        if robot_body not in robot_bodies or contact.dist > 0.0:
+    n = data.ncon
+    if n == 0 or box is None:
+        return
+    bodies = model.geom_bodyid[data.contact.geom[:n]]
+    others = np.where(bodies[:, 0] == box, bodies[:, 1], np.where(bodies[:, 1] == box, bodies[:, 0], -1))
+    wrench, frames = np.zeros(6), data.contact.frame[:n].reshape(n, 3, 3)
+    for i in np.flatnonzero((data.contact.dist[:n] <= 0.0) & (others >= 0)).tolist():
+        robot_body = int(others[i])
+        if robot_body not in robot_bodies:
             continue
         mujoco.mj_contactForce(model, data, i, wrench)
-        frame = contact.frame.reshape(3, 3)
+        frame = frames[i]
         yield ContactPoint(robot_body, frame[0].copy(), float(wrench[0]), wrench[1] * frame[1] + wrench[2] * frame[2])

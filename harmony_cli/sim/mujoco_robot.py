@@ -30,10 +30,9 @@ joint's velocity by tens of rad/s in one step), rings or diverges. The base: a v
 bandwidth for its inertia at home. The damping terms are integrated implicitly (implicitfast).
 
 The wrist sensors: a MuJoCo force and torque sensor at a site on each sensor joint's child body reads the support
-the wrist gives the tool (the bodies below the sensor). The tool's gravity and inertia are compensated with
-MuJoCo's own accelerations of those bodies (mj_objectAcceleration, gravity included), so the reading is the
-external wrench the environment applies to the tool, in the grasp frame, torque about the grasp origin: what
-sim/wrench.py reads in PyBullet. Why the sensor and not the contact forces on the tool: it also sees welds,
+the wrist gives the tool (the bodies below the sensor), compensated for the tool's gravity and inertia
+(sim/mujoco_wrench.py): the external wrench the environment applies to the tool, what sim/wrench.py reads in
+PyBullet. Why the sensor and not the contact forces on the tool: it also sees welds,
 equalities and applied forces, as a real sensor does.
 """
 
@@ -48,6 +47,7 @@ import numpy as np
 from harmony_cli.robot.urdf import required
 from harmony_cli.sim.motors import efforts
 from harmony_cli.sim.mujoco_meshes import mujoco_urdf
+from harmony_cli.sim.mujoco_wrench import ToolWrenches
 
 if TYPE_CHECKING:
     from harmony_cli.robot.model import Robot
@@ -189,6 +189,9 @@ class MujocoRobot:
         root = model.body_rootid[model.jnt_bodyid[joints[0]]]
         self.body_ids = {b for b in range(model.nbody) if b and model.body_rootid[b] == root}
         self.tool_bodies = [self._subtree(model.site_bodyid[site]) for site in self.wrist_sites]
+        self.tool_wrenches = ToolWrenches(
+            model, data, self.hand_sites, self.wrist_sites, self.sensor_rows, self.tool_bodies
+        )
 
     def _subtree(self, top: int) -> list[int]:
         """`top` and the bodies below it, parents before children."""
@@ -252,35 +255,5 @@ class MujocoRobot:
 
     def wrenches(self) -> np.ndarray:
         """(hands, 6): the external force [N] and torque about the grasp origin [N m] the environment applies to each
-        hand's tool, in the grasp frame (sim/wrench.py's frame and signs)."""
-        out = np.zeros((len(self.hand_sites), 6))
-        for h, (hand, wrist) in enumerate(zip(self.hand_sites, self.wrist_sites)):
-            origin, rotation = self.data.site_xpos[hand], self.data.site_xmat[hand].reshape(3, 3)
-            force, torque = self._tool_momentum_rate(h, origin)
-            support, support_torque = self._support(h, wrist, origin)
-            out[h, :3], out[h, 3:] = rotation.T @ (force - support), rotation.T @ (torque - support_torque)
-        return out
-
-    def _support(self, hand: int, wrist: int, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The force and torque about `origin` the wrist applies to the tool, in the world (the sensor's reading)."""
-        rotation = self.data.site_xmat[wrist].reshape(3, 3)
-        force_row, torque_row = self.sensor_rows[hand]
-        force = rotation @ self.data.sensordata[force_row : force_row + 3]
-        torque = rotation @ self.data.sensordata[torque_row : torque_row + 3]
-        return force, torque + np.cross(self.data.site_xpos[wrist] - origin, force)
-
-    def _tool_momentum_rate(self, hand: int, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The rate of change of the tool's momentum less its weight: force and torque about `origin`, world."""
-        model, data, acceleration, velocity = self.model, self.data, np.zeros(6), np.zeros(6)
-        force, torque = np.zeros(3), np.zeros(3)
-        for body in self.tool_bodies[hand]:
-            mujoco.mj_objectAcceleration(model, data, mujoco.mjtObj.mjOBJ_BODY, body, acceleration, 0)
-            mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, body, velocity, 0)
-            rotation = data.ximat[body].reshape(3, 3)
-            inertia = rotation @ np.diag(model.body_inertia[body]) @ rotation.T
-            spin = velocity[:3]
-            linear = model.body_mass[body] * acceleration[3:]  # the acceleration has gravity's -g in it
-            force += linear
-            torque += inertia @ acceleration[:3] + np.cross(spin, inertia @ spin)
-            torque += np.cross(data.xipos[body] - origin, linear)
-        return force, torque
+        hand's tool, in the grasp frame (sim/wrench.py's frame and signs; sim/mujoco_wrench.py)."""
+        return self.tool_wrenches.read()

@@ -9,10 +9,11 @@ import mujoco
 import numpy as np
 
 from harmony_cli.robot.observation import Observation
+from harmony_cli.sim.mujoco_contact_model import set_pad_contacts
 from harmony_cli.sim.mujoco_contacts import MujocoTouches
 from harmony_cli.sim.mujoco_pushes import MujocoPushes
 from harmony_cli.sim.mujoco_robot import MujocoRobot, robot_spec, tool_bodies
-from harmony_cli.sim.mujoco_world import MujocoWorld, add_world, set_pad_contacts
+from harmony_cli.sim.mujoco_world import MujocoWorld, add_world
 from harmony_cli.sim.truth import BoxTruth, Truth, assemble
 
 if TYPE_CHECKING:

@@ -2,27 +2,7 @@
 a free body and obstacles (static bodies, moving ones mocap bodies), added to the robot's MjSpec before it is
 compiled; then read back from the compiled model by name: `table:<name>` (geoms `table:<name>:top`,
 `table:<name>:leg<i>`), `obstacle:<name>` (body and geom), `box` (body and geom), `ground`.
-
-Contact parameters, chosen once for every scene (`contact_options`, `pad_contact_params`):
-- Elliptic friction cones with impratio 10: the elliptic cone is Coulomb's law itself (a pyramid lets a pad slip
-  sooner in some directions than others), and a ratio of frictional to normal impedance above 1 is what MuJoCo
-  advises against slip of a grasped object (a box held by friction alone would creep out of the pads otherwise).
-- The pads (robot geoms below the wrist sensors, which the robot's builder makes) get geom priority 2 (the box 1,
-  everything else 0): the higher priority's friction, condim, solref and solimp make a contact. So pad-box contacts
-  have condim 4 (torsional friction: the box does not pivot between the pads) with the box's sliding and spinning
-  friction, what PyBullet uses (the product of the box's and the robot's friction, ROBOT_FRICTION = 1); the box
-  against another robot link uses the box's friction and condim 3; against a table, explicit pairs with the
-  product of the box's and the table's friction, as PyBullet (PyBullet's tables have no spinning friction).
-- Rigid contacts keep MuJoCo's default solref (0.02 s, damping ratio 1: at least twice a 4 ms step) and solimp.
-- Compliant pads (sim.pad_stiffness K [N/m], pad_damping D [N s/m]): MuJoCo's direct solref (-k, -b) is a spring
-  per unit of the contact's effective mass, scaled by the impedance d: with solimp d constant (dmin = dmax = d)
-  one contact of effective mass m behaves as K = m k / (1 - d) and D = m b / (1 - d) (checked with a ball resting
-  on a plane). The pads press the box: m is the box's mass, so solref = (-K (1 - d) / m, -D (1 - d) / m). Each
-  contact point is such a spring, as with PyBullet's contactStiffness: a pad's face on the box's face makes 4.
-  The spring is the pad's along its normal only: a geom's solref sets the friction directions too, and a pad
-  as soft in shear lets a lifted box slide centimetres down the pads and pivot between them (PyBullet's
-  contactStiffness leaves friction rigid). So a compliant pad's contacts with the box are explicit pairs with
-  the pad's solref along the normal and MuJoCo's default in the friction directions (solreffriction)."""
+Contact parameters: sim/mujoco_contact_model.py."""
 
 from __future__ import annotations
 
@@ -32,24 +12,18 @@ import mujoco
 import numpy as np
 
 from harmony_cli.maths.shapes import table_legs
+from harmony_cli.sim.mujoco_contact_model import BOX_PRIORITY, ROLLING, box_table_pairs, contact_options
 from harmony_cli.sim.mujoco_contacts import mujoco_pad_contacts
 from harmony_cli.tasks.motion import centre_at
 
 if TYPE_CHECKING:
-    from collections.abc import Iterable, Sequence
+    from collections.abc import Sequence
 
     from harmony_cli.scenario.models import SimSpec
     from harmony_cli.scenario.world import BoxSpec, ObstacleSpec, TableSpec, WorldSpec
     from harmony_cli.sim.contacts import PadContacts
 
 FAR = 5.0  # [m] clearances beyond this are reported as FAR (as sim/world.py)
-IMPRATIO = 10.0  # frictional over normal impedance: a held box does not creep out of the pads
-PAD_IMPEDANCE = 0.9  # constant impedance d of compliant pads (solimp dmin = dmax)
-RIGID_FRICTION = [0.02, 1.0]  # MuJoCo's default solref: the pads' friction on the box is not the pads' spring
-PAD_PRIORITY, BOX_PRIORITY = 2, 1
-TORSIONAL_CONDIM = 4  # normal, two tangents and spinning about the normal
-ROLLING = 1e-4  # rolling friction (unused with condim <= 4; MuJoCo's default)
-BOX_MASS = 0.8  # [kg] BoxSpec's default: the pads' effective mass without a box
 # the ground touches the box and the scene (contype / conaffinity 1) but not the robot (its geoms: 2 / 1), which
 # stands on its virtual base joints: a foot or pedestal resting on the floor would otherwise press into it through
 # the rigid chain and hold the base by friction
@@ -62,51 +36,6 @@ def _quat(yaw_deg: float) -> list[float]:
     """MuJoCo's (w, x, y, z) quaternion of a turn by yaw about z."""
     half = np.deg2rad(yaw_deg) / 2
     return [float(np.cos(half)), 0.0, 0.0, float(np.sin(half))]
-
-
-def contact_options(spec: mujoco.MjSpec, sim_spec: SimSpec) -> None:
-    """The step and the friction model every scene shares (see the module's docstring)."""
-    spec.option.timestep = sim_spec.physics_dt
-    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
-    spec.option.impratio = IMPRATIO
-
-
-def pad_contact_params(sim_spec: SimSpec, box: BoxSpec | None = None) -> dict:
-    """MjsGeom attributes of a pad: priority, condim, friction (the box's sliding and spinning friction), and with
-    sim.pad_stiffness set, solref and solimp making the pad a spring of that stiffness and damping against the box."""
-    sliding, spinning = (1.0, 0.1) if box is None else (box.friction, box.spinning_friction)
-    params: dict = {
-        "priority": PAD_PRIORITY,
-        "condim": TORSIONAL_CONDIM,
-        "friction": [sliding, spinning, ROLLING],
-    }
-    if sim_spec.pad_stiffness is not None:
-        scale = (1.0 - PAD_IMPEDANCE) / (BOX_MASS if box is None else box.mass)
-        params["solref"] = [-sim_spec.pad_stiffness * scale, -sim_spec.pad_damping * scale]
-        params["solimp"] = [PAD_IMPEDANCE, PAD_IMPEDANCE, 0.001, 0.5, 2.0]
-    return params
-
-
-def set_pad_contacts(
-    spec: mujoco.MjSpec, pads: Iterable[mujoco.MjsBody], sim_spec: SimSpec, box: BoxSpec | None = None
-) -> None:
-    """Give the geoms of the pads' bodies (of the robot's MjSpec, after add_world, before compiling)
-    `pad_contact_params`; with compliant pads and a box, their contacts with the box as explicit pairs whose
-    friction is rigid (RIGID_FRICTION), the automatic ones excluded (module docstring)."""
-    params = pad_contact_params(sim_spec, box)
-    paired = box is not None and sim_spec.pad_stiffness is not None
-    sliding, spinning = params["friction"][:2]
-    for body in pads:
-        for i, geom in enumerate(body.geoms):
-            for key, value in params.items():
-                setattr(geom, key, value)
-            if paired:
-                geom.name = geom.name or f"{body.name}:pad{i}"
-                pair = spec.add_pair(geomname1=geom.name, geomname2="box", condim=TORSIONAL_CONDIM)
-                pair.friction = [sliding, sliding, spinning, ROLLING, ROLLING]
-                pair.solref, pair.solimp, pair.solreffriction = params["solref"], params["solimp"], RIGID_FRICTION
-        if paired:
-            spec.add_exclude(bodyname1=body.name, bodyname2="box")
 
 
 def add_world(spec: mujoco.MjSpec, world: WorldSpec | None, sim_spec: SimSpec) -> None:
@@ -129,7 +58,7 @@ def add_world(spec: mujoco.MjSpec, world: WorldSpec | None, sim_spec: SimSpec) -
     if world.box is not None:
         _add_box(spec, world.box)
         for table in world.tables:
-            _box_on_table(spec, world.box, table)
+            box_table_pairs(spec, world.box, table)
 
 
 def _add_table(spec: mujoco.MjSpec, t: TableSpec) -> None:
@@ -154,20 +83,6 @@ def _add_table(spec: mujoco.MjSpec, t: TableSpec) -> None:
             quat=_quat(t.yaw_deg),
             friction=friction,
             rgba=_TABLE_RGBA,
-        )
-
-
-def _box_on_table(spec: mujoco.MjSpec, b: BoxSpec, t: TableSpec) -> None:
-    """The box's contacts with a table's top and legs as explicit pairs with the product of the two frictions, as
-    PyBullet combines them (MuJoCo would take the box's alone); the automatic contacts between them excluded."""
-    spec.add_exclude(bodyname1="box", bodyname2=f"table:{t.name}")
-    sliding = b.friction * t.friction
-    for part in ["top", *(f"leg{i}" for i in range(len(table_legs(t))))]:
-        spec.add_pair(
-            geomname1="box",
-            geomname2=f"table:{t.name}:{part}",
-            condim=3,
-            friction=[sliding, sliding, 0.0, ROLLING, ROLLING],
         )
 
 
@@ -215,6 +130,7 @@ class MujocoWorld:
         obstacles = world.obstacles if world else []
         self.obstacles: dict[str, int] = {o.name: body(f"obstacle:{o.name}") for o in obstacles}
         self.obstacle_geoms = {name: _geoms_of(model, {b}) for name, b in self.obstacles.items()}
+        self._geoms: dict[frozenset[int], list[int]] = {}
         self.moving = {o.name: o for o in obstacles if o.motion is not None}
         self._mocap = {name: int(model.body_mocapid[self.obstacles[name]]) for name in self.moving}
         self.box: int | None = body("box") if world is not None and world.box is not None else None
@@ -259,16 +175,33 @@ class MujocoWorld:
 
     def clearances(self, bodies: set[int]) -> dict[str, float]:
         """Per obstacle, the smallest signed distance (negative: penetration) between any geom of `bodies` and it,
-        up to FAR, at the present positions (kinematics are brought up to date first)."""
-        mujoco.mj_kinematics(self.model, self.data)
-        mine = _geoms_of(self.model, bodies)
-        return {
-            name: min(
-                (min(mujoco.mj_geomDistance(self.model, self.data, g, o, FAR, None), FAR) for g in mine for o in geoms),
-                default=FAR,
-            )
-            for name, geoms in self.obstacle_geoms.items()
-        }
+        up to FAR, at the present positions (kinematics are brought up to date first). Exact: the geom pairs are
+        taken in the order of a lower bound on their distance (centres' distance less both bounding spheres) and
+        the search stops at the first bound beyond the smallest distance found."""
+        model, data = self.model, self.data
+        mujoco.mj_kinematics(model, data)
+        mine = self._geoms_of(frozenset(bodies))
+        out = {}
+        for name, theirs in self.obstacle_geoms.items():
+            if not mine or not theirs:
+                out[name] = FAR
+                continue
+            gaps = np.linalg.norm(data.geom_xpos[mine][:, None, :] - data.geom_xpos[theirs][None, :, :], axis=2)
+            bounds = gaps - model.geom_rbound[mine][:, None] - model.geom_rbound[theirs][None, :]
+            best = FAR
+            for k in np.argsort(bounds, axis=None).tolist():
+                i, j = divmod(k, len(theirs))
+                if bounds[i, j] >= best:
+                    break
+                best = min(best, mujoco.mj_geomDistance(model, data, mine[i], theirs[j], best, None))
+            out[name] = best
+        return out
+
+    def _geoms_of(self, bodies: frozenset[int]) -> list[int]:
+        """`_geoms_of` for a set of bodies, found once per set."""
+        if bodies not in self._geoms:
+            self._geoms[bodies] = _geoms_of(self.model, set(bodies))
+        return self._geoms[bodies]
 
     def pad_contacts(
         self, tool_bodies_per_hand: Sequence[set[int]], robot_bodies: set[int], friction: float

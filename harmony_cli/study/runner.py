@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
+import yaml
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from harmony_cli.console import warn
@@ -16,7 +17,7 @@ from harmony_cli.scenario import ScenarioError, load_scenario, scenario_yaml
 from harmony_cli.study.execute import Job, run_here, run_pool, run_ray
 from harmony_cli.study.plan import PlannedRun, code_version, plan_runs
 from harmony_cli.study.sampling import Sampler
-from harmony_cli.study.spec import StudySpec, base_scenario_path, draw_set, load_study
+from harmony_cli.study.spec import StudySpec, base_scenario_path, draw_set, load_study, with_grid
 from harmony_cli.study.table import NOT_RUN, TABLE, run_row, write_table
 from harmony_cli.tasks.scene_check import SceneCheck
 
@@ -35,6 +36,7 @@ class Options:
     rerun: tuple[str, ...] = ()
     plots: str = "failed"
     progress: bool = True
+    grid: tuple[str, ...] = ()  # grid axes added on the command line (field=v1,v2,...)
 
 
 @dataclass(frozen=True)
@@ -96,7 +98,7 @@ def plan_study(path: Path, options: Options) -> Plan:
     scenario)."""
     if options.rerun and not set(options.rerun) <= set(RERUN):
         raise ScenarioError(f"--rerun {','.join(options.rerun)}: choose from {', '.join(RERUN)}")
-    spec = load_study(path)
+    spec = with_grid(path, load_study(path), options.grid)
     name, draws = draw_set(spec, options.draws, options.seed, options.samples)
     scenario_path = base_scenario_path(path, spec)
     sampler = Sampler(spec, scenario_path, SceneCheck(scenario_path.parent, spec.check.clearance), (name, draws.seed))
@@ -116,7 +118,11 @@ def run_study(path: Path, options: Options) -> StudyOutcome:
     plan = plan_study(path, options)
     spec, out, runs, rows, todo = plan.spec, plan.out, plan.runs, plan.rows, plan.todo
     out.mkdir(parents=True, exist_ok=True)
-    (out / "study.yaml").write_text(path.read_text())
+    (out / "study.yaml").write_text(
+        path.read_text()
+        if not options.grid
+        else yaml.safe_dump(spec.model_dump(mode="json", exclude_defaults=True), sort_keys=False)
+    )
     base = scenario_yaml(load_scenario(plan.scenario_path, spec.set))  # the base scene, for the report's map
     (out / "base_scenario.yaml").write_text(base)
     for run in todo:

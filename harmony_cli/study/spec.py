@@ -11,6 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import yaml
 from pydantic import Field, PositiveInt, ValidationError, model_validator
 
 from harmony_cli.scenario.base import Strict
@@ -137,6 +138,21 @@ def load_study(path: Path) -> StudySpec:
         raise ScenarioError(f"{path}: expected a mapping at the top level, got {type(raw).__name__}")
     try:
         return StudySpec.model_validate(raw)
+    except ValidationError as err:
+        raise ScenarioError(one_line(path, err, StudySpec)) from None
+
+
+def with_grid(path: Path, spec: StudySpec, axes: tuple[str, ...]) -> StudySpec:
+    """The study with grid axes from the command line (`field=v1,v2,...`, each value read as YAML) added to its
+    own, replacing an axis of the same field; ScenarioError with one line for a malformed or invalid axis."""
+    grid = dict(spec.grid)
+    for axis in axes:
+        key, sep, values = axis.partition("=")
+        if not sep or not key or not values:
+            raise ScenarioError(f"--grid {axis!r}: expected field=v1,v2,..., e.g. sim.engine=pybullet,mujoco")
+        grid[key] = [yaml.safe_load(value) for value in values.split(",")]
+    try:
+        return StudySpec.model_validate(spec.model_dump() | {"grid": grid})
     except ValidationError as err:
         raise ScenarioError(one_line(path, err, StudySpec)) from None
 
