@@ -241,7 +241,7 @@ def bench(
 
     try:
         run_bench(scenario, list(knots), list(solver), steps, start, out)
-        if all(str(path) for path in loop):
+        if Path() not in loop:  # `--loop ''` (read as the current directory) skips the closed-loop part
             run_loop_bench(list(loop), out.with_name("loop.json") if out else None, engines=list(engine) or None)
     except (ScenarioError, SolverUnavailable) as exc:
         fail(str(exc))

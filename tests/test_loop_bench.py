@@ -5,7 +5,9 @@ import json
 
 from conftest import SMOKE, needs_pybullet
 from rich.console import Console
+from typer.testing import CliRunner
 
+from harmony_cli.cli import app
 from harmony_cli.experiment.loop_bench import run_loop_bench
 
 
@@ -37,3 +39,13 @@ def test_loop_bench_runs_each_experiment_in_each_engine_it_is_given():
     assert experiments[0]["name"].endswith("[mujoco]") and experiments[0]["steps"] == experiments[1]["steps"]
     for e in experiments:
         assert 0 < e["physics_pct_of_loop_wall"] < 100 and e["loop_wall_s"] < e["wall_s"]
+
+
+def test_bench_with_an_empty_loop_option_times_the_solvers_alone(tmp_path):
+    out = tmp_path / "bench.json"
+    args = ["bench", "--solver", "rti", "--knots", "6", "--steps", "3", "--loop", "", "--out", str(out)]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    configs = [(r["transcription"], r["knots"]) for r in json.loads(out.read_text())["results"]]
+    assert configs == [("traditional", 6), ("bezier", 6)]
+    assert not (tmp_path / "loop.json").exists()

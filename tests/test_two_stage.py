@@ -187,3 +187,16 @@ def test_push_recovery_yields_with_admittance_and_the_pusher_presses_harder_with
     assert push_off["applied_impulse_N_s"] == pytest.approx(force * (duration - duration / 8), rel=0.05)
     assert push_on["applied_impulse_N_s"] < push_off["applied_impulse_N_s"]
     assert push_on["peak_displacement_m"] > 0.01 > push_off["peak_displacement_m"] and push_on["recovery_s"] > 0
+
+
+def test_the_wrist_sensors_read_the_held_box_s_weight_within_2_percent(lift_run):
+    # held still by friction at the lift's end, the wrists carry the box: each sensor's force across its pad's normal
+    # (the grasp frame's force less its normal part) is that pad's share of the weight, m g in all (m = 0.8 kg)
+    steps = pd.read_csv(lift_run / "steps.csv")
+    still = steps[steps["t"] >= steps["t"].iloc[-1] - 0.5]
+    carried = 0.0
+    for hand in ("left", "right"):
+        force = still[[f"{hand}_force_{axis}_N" for axis in "xyz"]].to_numpy()
+        across = np.sqrt(np.maximum((force**2).sum(axis=1) - still[f"{hand}_force_normal_N"].to_numpy() ** 2, 0.0))
+        carried += np.median(across)
+    assert np.isclose(carried, 0.8 * 9.81, rtol=0.02), carried
