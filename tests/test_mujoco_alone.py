@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from conftest import ROOT, SMOKE, assert_rejected
+from conftest import ROOT, SMOKE, assert_rejected, needs_pybullet
 
 from harmony_cli.scenario.models import SimSpec
 
@@ -62,6 +62,23 @@ def test_without_pybullet_a_scenario_asking_for_it_is_refused_in_one_line(tmp_pa
     assert len(lines) == 1, lines
     for piece in (str(SMOKE), "sim.engine", "'pybullet'", "choose one of: mujoco"):
         assert piece in lines[0], lines[0]
+
+
+@needs_pybullet
+def test_a_mujoco_run_never_loads_pybullet_where_both_are_installed(tmp_path):
+    out = tmp_path / "run"
+    args = ["harmony", "run", str(SMOKE), "--set", "sim.engine=mujoco", "--out", str(out), "--quiet"]
+    check = (
+        f"import sys; from harmony_cli.cli import main\nsys.argv = {args!r}\n"
+        "try:\n    main()\nexcept SystemExit as end:\n    assert not end.code, end.code\n"
+        "print('loaded' if 'pybullet' in sys.modules else 'not loaded')"
+    )
+    env = os.environ | {"PYTHONPATH": str(ROOT)}
+    result = subprocess.run(
+        [sys.executable, "-c", check], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600
+    )
+    assert result.returncode == 0 and result.stdout.strip().endswith("not loaded"), result.stdout + result.stderr
+    assert "mujoco:" in (out / "run.log").read_text()
 
 
 def test_the_default_engine_is_pybullet_where_it_is_installed_and_mujoco_where_not(monkeypatch):

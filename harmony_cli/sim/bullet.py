@@ -7,14 +7,12 @@ from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
-import pybullet
-from pybullet_utils.bullet_client import BulletClient
 
 from harmony_cli.capture import captured_output
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.observation import Observation
-from harmony_cli.sim import PYBULLET_BANNER
 from harmony_cli.sim.bullet_camera import BulletCamera
+from harmony_cli.sim.bullet_import import BANNER, BulletClient, pybullet
 from harmony_cli.sim.contacts import pad_contacts
 from harmony_cli.sim.motors import efforts
 from harmony_cli.sim.pushes import Pushes
@@ -50,7 +48,7 @@ class BulletSimulation:
             ground = self.client.createCollisionShape(pybullet.GEOM_PLANE)
             self.ground = self.client.createMultiBody(0, ground)
             self.body = self.client.loadURDF(str(robot.urdf), useFixedBase=True, flags=BODY_FLAGS)
-        self.notes = [f"pybullet: {line}" for line in PYBULLET_BANNER + output]
+        self.notes = [f"pybullet: {line}" for line in BANNER + output]
         by_name = {}
         for i in range(self.client.getNumJoints(self.body)):
             info = self.client.getJointInfo(self.body, i)

@@ -5,8 +5,8 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 
 import numpy as np
-import pybullet
 
+from harmony_cli.sim.bullet_import import pybullet
 from harmony_cli.sim.video import CAMERA_DISTANCE, CAMERA_FOV, CAMERA_PITCH, CAMERA_YAW, DEFAULT_TARGET
 
 

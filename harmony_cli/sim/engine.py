@@ -4,6 +4,7 @@ implements this one interface; the experiment package sees only it."""
 
 from __future__ import annotations
 
+import sys
 from typing import TYPE_CHECKING, Protocol
 
 if TYPE_CHECKING:
@@ -81,16 +82,7 @@ def simulator_errors() -> tuple[type[BaseException], ...]:
     """What an engine raises when it fails or its server is gone (for the run's `simulator` fault), of the engines
     that are installed."""
     errors: list[type[BaseException]] = []
-    try:
-        import pybullet
-
-        errors.append(pybullet.error)
-    except ImportError:
-        pass
-    try:
-        import mujoco
-
-        errors.append(mujoco.FatalError)
-    except ImportError:
-        pass
+    for module, error in (("pybullet", "error"), ("mujoco", "FatalError")):  # an engine never loaded raised none
+        if module in sys.modules:
+            errors.append(getattr(sys.modules[module], error))
     return tuple(errors)

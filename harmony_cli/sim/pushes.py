@@ -115,7 +115,7 @@ class Pushes:
         world: World | None = None,
         physics_dt: float = 0.004,
     ):
-        import pybullet  # a PyBullet run's: mujoco_pushes.py shares the law on Pythons without PyBullet
+        from harmony_cli.sim.bullet_import import pybullet  # a PyBullet run's: mujoco_pushes.py shares the law
 
         self.client, self.world_frame = client, pybullet.WORLD_FRAME
         self.law = PushForces(specs, physics_dt)

@@ -19,9 +19,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-import pybullet
 
 from harmony_cli.maths.shapes import table_legs
+from harmony_cli.sim.bullet_import import pybullet
 from harmony_cli.tasks.motion import centre_at
 
 if TYPE_CHECKING:

@@ -15,7 +15,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-import pybullet
+
+from harmony_cli.sim.bullet_import import pybullet
 
 
 class WristSensors:

@@ -35,11 +35,9 @@ def render_video(run: RunData, path: Path, fps: float = FPS, size: tuple[int, in
 
 @contextmanager
 def _bullet_scene(run: RunData, size: tuple[int, int], follow: Callable[[], np.ndarray]) -> Iterator[Scene]:
-    import pybullet
-    from pybullet_utils.bullet_client import BulletClient
-
     from harmony_cli.capture import captured_output
     from harmony_cli.sim.bullet_camera import BulletCamera
+    from harmony_cli.sim.bullet_import import BulletClient, pybullet
     from harmony_cli.sim.world import World
 
     with captured_output():  # PyBullet's C banner
