@@ -14,17 +14,12 @@ from harmony_cli.experiment.interrupts import RunInterrupted, signals_end_the_ru
 from harmony_cli.experiment.run import run_scenario
 from harmony_cli.experiment.workers import end_workers, worker_pool
 from harmony_cli.report.tracking import tracking_failed
-from harmony_cli.scenario import ScenarioError, apply_overrides
+from harmony_cli.scenario import apply_overrides, grid_axis
 
 
 def expand_grid(axes: list[str]) -> list[list[str]]:
     """['a=1,2', 'b=x,y'] -> [['a=1','b=x'], ['a=1','b=y'], ['a=2','b=x'], ['a=2','b=y']]."""
-    parsed = []
-    for axis in axes:
-        key, sep, values = axis.partition("=")
-        if not sep or not key or not values:
-            raise ScenarioError(f"--grid {axis!r}: expected key.path=v1,v2,..., e.g. mpc.knots=6,26")
-        parsed.append([f"{key}={v}" for v in values.split(",")])
+    parsed = [[f"{key}={v}" for v in values] for key, values in map(grid_axis, axes)]
     return [list(point) for point in itertools.product(*parsed)]
 
 

@@ -3,7 +3,7 @@ cross-checks. Everything a run uses is validated here; inside harmony there are 
 
 from harmony_cli.scenario.checks import robot_of, robot_warnings
 from harmony_cli.scenario.errors import ScenarioError
-from harmony_cli.scenario.loading import apply_overrides, load_scenario, scenario_yaml
+from harmony_cli.scenario.loading import apply_overrides, grid_axis, load_scenario, scenario_yaml
 from harmony_cli.scenario.models import (
     AdmittanceSpec,
     MpcSpec,
@@ -42,6 +42,7 @@ __all__ = [
     "WorldSpec",
     "Weights",
     "apply_overrides",
+    "grid_axis",
     "load_scenario",
     "robot_of",
     "robot_warnings",

@@ -24,6 +24,15 @@ from harmony_cli.scenario.schema import as_current
 from harmony_cli.scenario.source import load_yaml_file, parse_yaml
 
 
+def grid_axis(axis: str) -> tuple[str, list[str]]:
+    """A `--grid` axis: 'a.b=1,2' -> ('a.b', ['1', '2']) (each value parsed as YAML where it is applied);
+    ScenarioError with one line for anything else."""
+    key, sep, values = axis.partition("=")
+    if not sep or not key or not values:
+        raise ScenarioError(f"--grid {axis!r}: expected key.path=v1,v2,..., e.g. mpc.knots=6,26")
+    return key, values.split(",")
+
+
 def apply_overrides(raw: dict, overrides: list[str]) -> dict:
     """Apply `a.b.c=value` overrides (value parsed as YAML) to a raw scenario mapping; in a list, a number is an
     index and a name picks the item of that name (`world.obstacles.0.motion=null`,

@@ -175,27 +175,17 @@ class MujocoWorld:
 
     def clearances(self, bodies: set[int]) -> dict[str, float]:
         """Per obstacle, the smallest signed distance (negative: penetration) between any geom of `bodies` and it,
-        up to FAR, at the present positions (kinematics are brought up to date first). Exact: the geom pairs are
-        taken in the order of a lower bound on their distance (centres' distance less both bounding spheres) and
-        the search stops at the first bound beyond the smallest distance found."""
+        up to FAR, at the present positions (kinematics are brought up to date first)."""
         model, data = self.model, self.data
         mujoco.mj_kinematics(model, data)
         mine = self._geoms_of(frozenset(bodies))
-        out = {}
-        for name, theirs in self.obstacle_geoms.items():
-            if not mine or not theirs:
-                out[name] = FAR
-                continue
-            gaps = np.linalg.norm(data.geom_xpos[mine][:, None, :] - data.geom_xpos[theirs][None, :, :], axis=2)
-            bounds = gaps - model.geom_rbound[mine][:, None] - model.geom_rbound[theirs][None, :]
-            best = FAR
-            for k in np.argsort(bounds, axis=None).tolist():
-                i, j = divmod(k, len(theirs))
-                if bounds[i, j] >= best:
-                    break
-                best = min(best, mujoco.mj_geomDistance(model, data, mine[i], theirs[j], best, None))
-            out[name] = best
-        return out
+        return {
+            name: min(
+                (min(mujoco.mj_geomDistance(model, data, g, o, FAR, None), FAR) for g in mine for o in geoms),
+                default=FAR,
+            )
+            for name, geoms in self.obstacle_geoms.items()
+        }
 
     def _geoms_of(self, bodies: frozenset[int]) -> list[int]:
         """`_geoms_of` for a set of bodies, found once per set."""

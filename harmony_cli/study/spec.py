@@ -16,6 +16,7 @@ from pydantic import Field, PositiveInt, ValidationError, model_validator
 
 from harmony_cli.scenario.base import Strict
 from harmony_cli.scenario.errors import ScenarioError, one_line
+from harmony_cli.scenario.loading import grid_axis
 from harmony_cli.scenario.source import load_yaml_file
 
 MAX_SAMPLES = 100_000
@@ -146,11 +147,8 @@ def with_grid(path: Path, spec: StudySpec, axes: tuple[str, ...]) -> StudySpec:
     """The study with grid axes from the command line (`field=v1,v2,...`, each value read as YAML) added to its
     own, replacing an axis of the same field; ScenarioError with one line for a malformed or invalid axis."""
     grid = dict(spec.grid)
-    for axis in axes:
-        key, sep, values = axis.partition("=")
-        if not sep or not key or not values:
-            raise ScenarioError(f"--grid {axis!r}: expected field=v1,v2,..., e.g. sim.engine=pybullet,mujoco")
-        grid[key] = [yaml.safe_load(value) for value in values.split(",")]
+    for key, values in map(grid_axis, axes):
+        grid[key] = [yaml.safe_load(value) for value in values]
     try:
         return StudySpec.model_validate(spec.model_dump() | {"grid": grid})
     except ValidationError as err:
