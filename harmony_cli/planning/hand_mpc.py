@@ -1,6 +1,6 @@
 """Task-space planner (MPC-T): both hands' paths from their measured state to the phase goal at rest, re-planned
-every step by the hands' SQP (hand_sqp.py): `phase_iterations` QPs at a phase change, `iterations` (1: real-time
-iteration) on every other step.
+every step by the hands' SQP (hand_sqp.py): `phase_iterations` QPs for a phase's first plan, at most
+`step_iterations` a control step (phase_start.py), `iterations` (1: real-time iteration) on every other step.
 
 A phase's first plan's horizon is the phase's remaining time, or, where that is too short for the rate bounds from
 the measured state, the least that is long enough, in closed form (plan_horizon.py); later plans keep its end
@@ -23,9 +23,9 @@ import numpy as np
 
 from harmony_cli.maths.bezier import shift_matrix
 from harmony_cli.mpc.problem import NoPlanToHold
-from harmony_cli.planning.hand_plan import Ends, HandState, Obstacle, Outcome, Plan, PlannerResult
+from harmony_cli.planning.hand_plan import Ends, HandState, Obstacle, Outcome, Plan, PlannerResult, Solved
 from harmony_cli.planning.hand_sqp import HandSQP, rate_bounds
-from harmony_cli.planning.phase_start import first_plan, on_route_plan
+from harmony_cli.planning.phase_start import FirstPlan, first_plan, on_route_plan
 from harmony_cli.planning.plan_base import PlannedBase
 from harmony_cli.planning.plan_checks import goal_reliefs
 from harmony_cli.planning.plan_horizon import least_horizon, meets, retimed
@@ -61,6 +61,7 @@ class HandMPC:
         self.t_plan, self.T_plan = 0.0, 1.0
         self.via: np.ndarray | None = None  # (2,) a point a phase's first plan routes through (a chosen stance)
         self._route_next = False  # whether the next step tries a route (the phase's first plan wants one)
+        self.first: FirstPlan | None = None  # the phase's first plan while its SQP runs over the steps
         self._relief_key: tuple | None = None  # the goal whose reliefs the SQP has
         warm_outlines(obstacles, ground)  # before the loop, as the compiled code is loaded
 
@@ -105,12 +106,11 @@ class HandMPC:
         ends = (state, goal, self.goal_heading(goal, state.heading))
         previous = self.C if phase == self.phase else None
         fresh = previous is None
-        if previous is None:  # straight line to the goal, then full SQP
-            T, C, iterations = self.horizon(ends, phase_end - t), straight_to(ends, self.M), self.spec.phase_iterations
+        if previous is None:  # straight line to the goal, then the first plan's SQP
+            T, C = self.horizon(ends, phase_end - t), straight_to(ends, self.M)
         else:  # the previous plan from now on (de Casteljau), re-timed to the new horizon
             tau = min(max((t - self.t_plan) / self.T_plan, 0.0), 0.99)  # np.clip costs ~4 us on a float
             C = previous @ shift_matrix(self.M, tau) if tau > 0 else previous.copy()
-            iterations = self.spec.iterations
             T = self._kept_horizon(C, state, phase_end - t, self.t_plan + self.T_plan - t)
         T = max(T, self.spec.min_horizon)
         width = float(np.linalg.norm(goal[1] - goal[0]))
@@ -118,20 +118,11 @@ class HandMPC:
         if key != self._relief_key:
             self.sqp.reliefs, self._relief_key = goal_reliefs(self.obstacles, goal, t + T, carried), key
         via = self.via if fresh else None  # Planner sets it at a phase change: the phase's first plan only
-        route_now, self.via, self._route_next = self._route_next, None, False
-        # the way to a chosen stance is known (the straight line leads to the blocked side), or the last step asked
-        # for a route: its route's SQP alone (one SQP a step), the plan's own step if there is none or it fails
-        solved = None
-        if via is not None or route_now:
-            solved = on_route_plan(self.sqp, self.ground, t, T, ends, carried, width, via)
-        if solved is None or not solved.success:
-            solved, self._route_next = first_plan(
-                self.sqp, self.ground, C, t, T, ends, (iterations, carried, width), fresh and not route_now
-            )
+        solved = self._solve(C, t, T, ends, (carried, width), fresh, via)
         if not solved.success and not fresh and (longer := self.horizon(ends, T)) > T:
             # the hands fell behind the plan's end: the rate bounds (the clearance rows' slack is always feasible)
             # need the closed-form horizon, which later plans then keep
-            solved = self.sqp.solve(C, t, longer, ends, iterations, carried, width)
+            solved = self.sqp.solve(C, t, longer, ends, self.spec.iterations, carried, width)
         outcome = solved.outcome
         if outcome.success and not np.isfinite(solved.C).all():  # NaN / inf never becomes the plan: the last is held
             outcome = Outcome.NON_FINITE
@@ -144,6 +135,27 @@ class HandMPC:
         return PlannerResult(
             plan, outcome, solved.iterations, elapsed, solved.clearance, solved.routed, solved.shortfall
         )
+
+    def _solve(self, C, t: float, T: float, ends: Ends, load: tuple, fresh: bool, via) -> Solved:
+        """This step's SQP: a route's when the phase has a point to pass (`via`) or the last step asked for one,
+        else from `C` (the line on a `fresh` phase's first step, else the last plan shifted); a first plan's at
+        most `step_iterations` QPs, a later plan's `iterations`. `load` = (carried, width)."""
+        route_now, self.via, self._route_next = self._route_next, None, False
+        solved, most, (carried, width) = None, self.spec.step_iterations, load
+        if via is not None or route_now:  # the route's SQP alone (one SQP a step); the plan's own if it fails
+            route = FirstPlan(self.spec.phase_iterations, routed=True)
+            solved = on_route_plan(self.sqp, self.ground, t, T, ends, carried, width, route.take(most), via)
+            self.first = route if solved is not None and solved.success else None
+        if solved is None or not solved.success:
+            if fresh:
+                self.first = FirstPlan(self.spec.phase_iterations)
+            iterations = self.spec.iterations if self.first is None else self.first.take(most)
+            solved, self._route_next = first_plan(
+                self.sqp, self.ground, C, t, T, ends, (iterations, carried, width), self.first
+            )
+        if self.first is not None and (not solved.success or solved.converged or self.first.left == 0):
+            self.first = None  # the first plan has ended: later steps are real-time iterations
+        return solved
 
     def _kept_horizon(self, C: np.ndarray, state: HandState, remaining: float, left: float) -> float:
         """A later plan's horizon: the phase's `remaining` time, or, for a plan `left` [s] to run past the phase's

@@ -88,7 +88,13 @@ class PlannerSpec(Strict):
         "previous plan's, or the measured one (restarts from rest when the robot lags)",
     )
     iterations: int = Field(1, ge=1, description="SQP iterations per re-plan (1: real-time iteration)")
-    phase_iterations: int = Field(10, ge=1, description="SQP iterations at the start of a phase")
+    phase_iterations: int = Field(10, ge=1, description="SQP iterations of a phase's first plan")
+    step_iterations: int = Field(
+        10,
+        ge=1,
+        description="the most SQP iterations of a phase's first plan on one control step: the rest run on the "
+        "next steps, the plan so far tracked meanwhile (bounds a step's time)",
+    )
     tol: PositiveFloat = Field(1e-5, description="SQP step tolerance [m]")
     qp: QpName = "daqp"
     weights: PlannerWeights = PlannerWeights()
