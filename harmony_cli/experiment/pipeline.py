@@ -78,6 +78,7 @@ def build(scenario: Scenario, scenario_dir: Path) -> Built:
         if scenario.task is not None and (why := unposed(scenario, robot)) is not None:
             raise RunFault("no stance", f"the controller found no stance before the robot moved: {why}")
         mpc = WholeBodyMPC(robot, scenario, scenario.sim.control_dt)
+        mpc.prepare(sim.observe().q)  # its first step's structures, before the loop's clock starts
     except BaseException:
         sim.close()
         raise

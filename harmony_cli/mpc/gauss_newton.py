@@ -91,6 +91,17 @@ class GaussNewtonSolver:
             from_c = from_c[0], source
         return solver, from_c
 
+    def prepare(self, lbx: np.ndarray, ubx: np.ndarray) -> None:
+        """The QP of this pattern (a dense one's solver for every row count), and the compiled maps loaded."""
+        qp = self._qp(lbx < ubx)[0]
+        if isinstance(qp, ScreenedQP):
+            qp.prepare()
+        self.model.knots  # noqa: B018 - loads the compiled code (waits for gcc on a cold cache)
+        if self.constraints is not None:
+            self.constraints.map  # noqa: B018
+            if self.far is not None:
+                self.constraints.far_map  # noqa: B018
+
     def solve(self, x0, lbx, ubx, p) -> SolveResult:
         built = time.perf_counter()
         free = lbx < ubx

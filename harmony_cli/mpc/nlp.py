@@ -124,6 +124,9 @@ class NlpSolver:
             self._solvers[free.tobytes()] = solver, r
         return self._solvers[free.tobytes()]
 
+    def prepare(self, lbx: np.ndarray, ubx: np.ndarray) -> None:
+        """Nothing is built per pattern: the NLP solver was built whole."""
+
     def solve(self, x0, lbx, ubx, p) -> SolveResult:
         built = time.perf_counter()
         free = lbx < ubx
@@ -189,6 +192,9 @@ class SymbolicNlpSolver:
         margins = None if self.constraints is None else self.constraints.margins
         self.context = SolveContext(problem, self.path, margins)
         self.lam_x, self.lam_g = np.zeros(problem.n_vars), np.zeros(g.numel())
+
+    def prepare(self, lbx: np.ndarray, ubx: np.ndarray) -> None:
+        """Nothing is built per pattern: the NLP solver was built whole."""
 
     def solve(self, x0, lbx, ubx, p) -> SolveResult:
         start = time.perf_counter()

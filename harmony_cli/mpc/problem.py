@@ -156,6 +156,10 @@ class Solver(Protocol):
 
     def solve(self, x0: np.ndarray, lbx: np.ndarray, ubx: np.ndarray, p: np.ndarray) -> SolveResult: ...
 
+    def prepare(self, lbx: np.ndarray, ubx: np.ndarray) -> None:
+        """Build what a solve with these bounds' pattern of free variables builds on first use (before a loop's
+        clock starts); what any solve finds is unchanged."""
+
 
 def dense(m: cs.DM) -> np.ndarray:
     """A DM as a numpy array, from its nonzeros (np.array(m) walks every element in Python: ~0.2 s for the

@@ -113,11 +113,8 @@ class WholeBodyMPC:
         self.params = self.layout.stack(
             hand_ref, self.obstacle_poses, force_ref, self.force_seen, chest_ref, stance, task_weight
         )
-        t, dt, robot = self.transcription, self.control_dt, self.robot
-        # the compliant offsets start at 0; mimic joints from their leaders (the coupling rows hold the plan to it)
-        q_init = np.concatenate([robot.coupled(q_now), np.zeros(t.n_dof - q_now.size)])
-        q_init[self.pinned] = robot.home[self.pinned]
-        lbx, ubx = t.bounds(*self.limits, q_init, self.pinned, robot.home[self.pinned])
+        t, dt = self.transcription, self.control_dt
+        q_init, lbx, ubx = self._bounds(q_now)
         x0 = self._constant(q_init) if self.x is None else t.shift(self.x, dt)
         if self.max_acceleration is not None and self.x is not None:
             lbx, ubx = self._acceleration_bounds(x0, q_init, lbx, ubx)
@@ -133,6 +130,19 @@ class WholeBodyMPC:
         # A held plan is read out from its shifted copy: it continues from where it was, not from q_now.
         self.x = t.shift(self.x, dt)
         return self._command(self.x, held=True), result
+
+    def prepare(self, q_now: np.ndarray) -> None:
+        """Build what the first `step` from `q_now` would build on first use (its QP, compiled code loaded), before
+        the loop's clock starts: the first step costs what a later one does. Nothing it solves changes."""
+        self.solver.prepare(*self._bounds(q_now)[1:])
+
+    def _bounds(self, q_now: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(the joints' state the plan starts from, lbx, ubx): the compliant offsets start at 0, mimic joints from
+        their leaders (the coupling rows hold the plan to it), pinned joints at home."""
+        t, robot = self.transcription, self.robot
+        q_init = np.concatenate([robot.coupled(q_now), np.zeros(t.n_dof - q_now.size)])
+        q_init[self.pinned] = robot.home[self.pinned]
+        return q_init, *t.bounds(*self.limits, q_init, self.pinned, robot.home[self.pinned])
 
     def _acceleration_bounds(self, x0, q_now, lbx, ubx) -> tuple[np.ndarray, np.ndarray]:
         """The joints' velocity at t = 0 within max_acceleration * dt of the warm start's (the last plan's, now):

@@ -1,0 +1,62 @@
+"""A phase's first plan whose SQP runs over several control steps (planner.step_iterations)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from harmony_cli.maths.shapes import Shape
+from harmony_cli.planning.hand_mpc import HandMPC
+from harmony_cli.planning.hand_plan import HandState, Obstacle, Outcome
+from harmony_cli.scenario import PlannerSpec
+
+HOME = np.stack([np.eye(3), np.eye(3)])
+OFFSET = np.pi / 2  # hand 0 at +y, hand 1 at -y: heading 0 faces +x
+START = np.array([[0.76, 0.15, 0.93], [0.76, -0.15, 0.93]])
+GOAL = START + [2.0, 0.0, 0.0]
+
+
+def _cylinder(y: float) -> Obstacle:
+    return Obstacle(Shape("cylinder", np.array([1.7, y, 1.0]), 0.0, np.array([0.3, 0.3, 1.0])), 0.13)
+
+
+ARGS = (HandState(START, np.zeros((2, 3)), 0.0), GOAL, 5.0, 0)
+
+
+def _counting(planner: HandMPC) -> list[int]:
+    """The QPs each SQP solve of `planner` runs, appended as they return."""
+    counts, solve = [], planner.sqp.solve
+
+    def counted(*args, **kwargs):
+        solved = solve(*args, **kwargs)
+        counts.append(solved.iterations)
+        return solved
+
+    planner.sqp.solve = counted  # type: ignore[method-assign]
+    return counts
+
+
+def test_a_first_plan_spread_over_steps_from_one_state_converges_to_the_plan_solved_in_one_step():
+    # at one time and state every step continues the same Gauss-Newton iterates: the same plan at the end
+    beside = [_cylinder(0.5)]  # beside the straight line: seven QPs to converge
+    whole = HandMPC(PlannerSpec(phase_iterations=30, step_iterations=30), beside, HOME, OFFSET).step(0.0, *ARGS)
+    assert whole.outcome is Outcome.CONVERGED and whole.iterations > 4
+    spread = HandMPC(PlannerSpec(phase_iterations=30, step_iterations=2), beside, HOME, OFFSET)
+    counts = _counting(spread)
+    steps = [spread.step(0.0, *ARGS) for _ in range(whole.iterations)]
+    ended = next(i for i, s in enumerate(steps) if s.outcome is Outcome.CONVERGED)
+    assert counts[: ended + 1] == [2] * ended + [whole.iterations - 2 * ended]
+    np.testing.assert_allclose(steps[ended].plan.control_points, whole.plan.control_points, atol=1e-6)
+    assert counts[ended + 1 :] == [1] * (len(steps) - ended - 1)  # then one real-time iteration a step
+
+
+def test_a_first_plan_asks_for_a_route_only_when_its_iterations_are_spent_and_no_step_runs_more_than_its_share():
+    planner = HandMPC(PlannerSpec(phase_iterations=6, step_iterations=2), [_cylinder(0.0)], HOME, OFFSET)
+    counts = _counting(planner)
+    carried = (0.2, 0.0)  # the box cannot pass the cylinder on the straight line: the line's plan falls short
+    results, wanted = [], []
+    for k in range(5):
+        results.append(planner.step(0.02 * k, *ARGS, *carried))
+        wanted.append(planner.route_pending)
+    assert wanted == [False, False, True, False, False]  # 2 + 2 + 2 QPs from the line, then the route's
+    assert [r.routed for r in results] == [False, False, False, True, True]
+    assert counts == [2, 2, 2, 2, 2]
