@@ -75,3 +75,24 @@ def test_knot_rows_act_like_the_dense_rows_they_stand_for():
     np.testing.assert_allclose(rows.times(v), G @ v, rtol=1e-12)
     taken = np.sort(rng.choice(G.shape[0], 9, replace=False))
     assert np.array_equal(rows.take(taken), G[taken])
+
+
+def test_a_prepared_screened_qp_builds_no_solver_while_it_solves_and_finds_what_an_unprepared_one_finds(monkeypatch):
+    rng = np.random.default_rng(11)
+    n, m = 20, 70
+    H, g, G, lo, hi = _random_qp(rng, n, m)
+    built = []
+    conic = cs.conic
+    monkeypatch.setattr(cs, "conic", lambda *a, **k: built.append(a[0]) or conic(*a, **k))
+    prepared = ScreenedQP("daqp", {"error_on_fail": False}, cs.Sparsity.dense(n, n), m)
+    prepared.prepare()
+    assert len(built) == -(-m // 16)  # one per padded row count
+    plain = ScreenedQP("daqp", {"error_on_fail": False}, cs.Sparsity.dense(n, n), m)
+    free = np.full(n, -np.inf), np.full(n, np.inf)
+    for _ in range(6):
+        g = g + 3.0 * rng.standard_normal(n)
+        before = len(built)
+        a = prepared.solve(H.ravel("F"), g, *free, DenseRows(G), lo, hi)
+        assert len(built) == before
+        b = plain.solve(H.ravel("F"), g, *free, DenseRows(G), lo, hi)
+        assert a.success and np.array_equal(a.z, b.z)
