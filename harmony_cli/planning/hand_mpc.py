@@ -17,6 +17,7 @@ base pose that works at a blocked stance, planning/stance_pose.py) gets the rout
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -25,9 +26,9 @@ from harmony_cli.maths.bezier import shift_matrix
 from harmony_cli.mpc.problem import NoPlanToHold
 from harmony_cli.planning.hand_plan import Ends, HandState, Obstacle, Outcome, Plan, PlannerResult, Solved
 from harmony_cli.planning.hand_sqp import HandSQP, rate_bounds
-from harmony_cli.planning.phase_start import FirstPlan, first_plan, on_route_plan
+from harmony_cli.planning.phase_start import Search, held, route_seed
 from harmony_cli.planning.plan_base import PlannedBase
-from harmony_cli.planning.plan_checks import goal_reliefs
+from harmony_cli.planning.plan_checks import goal_reliefs, is_clean
 from harmony_cli.planning.plan_horizon import least_horizon, meets, retimed
 from harmony_cli.planning.plan_seed import Ground, straight_to, warm_outlines
 
@@ -61,7 +62,8 @@ class HandMPC:
         self.t_plan, self.T_plan = 0.0, 1.0
         self.via: np.ndarray | None = None  # (2,) a point a phase's first plan routes through (a chosen stance)
         self._route_next = False  # whether the next step tries a route (the phase's first plan wants one)
-        self.first: FirstPlan | None = None  # the phase's first plan while its SQP runs over the steps
+        self._steps_on = False  # a route's SQP failed: the plan taken steps on, on the same step
+        self.search: Search | None = None  # the phase's first plan while its SQP runs over the steps
         self._relief_key: tuple | None = None  # the goal whose reliefs the SQP has
         warm_outlines(obstacles, ground)  # before the loop, as the compiled code is loaded
 
@@ -104,25 +106,24 @@ class HandMPC:
         carried = None if carrying_radius is None else (carrying_radius, carrying_drop)
         start_time = time.perf_counter()
         ends = (state, goal, self.goal_heading(goal, state.heading))
-        previous = self.C if phase == self.phase else None
-        fresh = previous is None
-        if previous is None:  # straight line to the goal, then the first plan's SQP
-            T, C = self.horizon(ends, phase_end - t), straight_to(ends, self.M)
-        else:  # the previous plan from now on (de Casteljau), re-timed to the new horizon
-            tau = min(max((t - self.t_plan) / self.T_plan, 0.0), 0.99)  # np.clip costs ~4 us on a float
-            C = previous @ shift_matrix(self.M, tau) if tau > 0 else previous.copy()
-            T = self._kept_horizon(C, state, phase_end - t, self.t_plan + self.T_plan - t)
-        T = max(T, self.spec.min_horizon)
         width = float(np.linalg.norm(goal[1] - goal[0]))
-        key = (phase, carried is None, goal.tobytes())  # the goal's reliefs: once a phase
-        if key != self._relief_key:
-            self.sqp.reliefs, self._relief_key = goal_reliefs(self.obstacles, goal, t + T, carried), key
-        via = self.via if fresh else None  # Planner sets it at a phase change: the phase's first plan only
-        solved = self._solve(C, t, T, ends, (carried, width), fresh, via)
-        if not solved.success and not fresh and (longer := self.horizon(ends, T)) > T:
-            # the hands fell behind the plan's end: the rate bounds (the clearance rows' slack is always feasible)
-            # need the closed-form horizon, which later plans then keep
-            solved = self.sqp.solve(C, t, longer, ends, self.spec.iterations, carried, width)
+        if self.search is not None and self.search.phase != phase:
+            self.search = None  # the phase changed while its first plan was searched
+        route_now, self._route_next = self._route_next, False
+        if self.search is None and phase != self.phase:  # a new phase: its first plan's search
+            self.search = self._phase_search(t, ends, phase, phase_end, carried)
+        elif self.search is None and route_now:  # the first plan wants a route: its SQP alone on this step
+            T = self._later_horizon(t, state, phase_end)[1]
+            seed = route_seed(self.sqp, self.ground, T, ends, carried)
+            self.search = None if seed is None else Search(phase, seed, t + T, self.spec.phase_iterations, True)
+        solved, self._steps_on, key = None, False, (phase, carried is None, goal)
+        if self.search is not None:
+            solved, ended = self._search_step(t, ends, (carried, width), key)
+            if not ended:
+                return self._holding(t, state, solved, time.perf_counter() - start_time)
+        if self.search is None and self.phase == phase and (self._steps_on or solved is None):
+            solved = self._later_step(t, state, ends, phase_end, (carried, width), key)
+        assert solved is not None  # a phase without a plan taken has a search
         outcome = solved.outcome
         if outcome.success and not np.isfinite(solved.C).all():  # NaN / inf never becomes the plan: the last is held
             outcome = Outcome.NON_FINITE
@@ -136,26 +137,84 @@ class HandMPC:
             plan, outcome, solved.iterations, elapsed, solved.clearance, solved.routed, solved.shortfall
         )
 
-    def _solve(self, C, t: float, T: float, ends: Ends, load: tuple, fresh: bool, via) -> Solved:
-        """This step's SQP: a route's when the phase has a point to pass (`via`) or the last step asked for one,
-        else from `C` (the line on a `fresh` phase's first step, else the last plan shifted); a first plan's at
-        most `step_iterations` QPs, a later plan's `iterations`. `load` = (carried, width)."""
-        route_now, self.via, self._route_next = self._route_next, None, False
-        solved, most, (carried, width) = None, self.spec.step_iterations, load
-        if via is not None or route_now:  # the route's SQP alone (one SQP a step); the plan's own if it fails
-            route = FirstPlan(self.spec.phase_iterations, routed=True)
-            solved = on_route_plan(self.sqp, self.ground, t, T, ends, carried, width, route.take(most), via)
-            self.first = route if solved is not None and solved.success else None
-        if solved is None or not solved.success:
-            if fresh:
-                self.first = FirstPlan(self.spec.phase_iterations)
-            iterations = self.spec.iterations if self.first is None else self.first.take(most)
-            solved, self._route_next = first_plan(
-                self.sqp, self.ground, C, t, T, ends, (iterations, carried, width), self.first
-            )
-        if self.first is not None and (not solved.success or solved.converged or self.first.left == 0):
-            self.first = None  # the first plan has ended: later steps are real-time iterations
+    def _phase_search(self, t: float, ends: Ends, phase: int, phase_end: float, carried) -> Search:
+        """A new phase's first plan's search: from the route through its point to pass, if it has one and a
+        route goes there, else from the straight line."""
+        T = max(self.horizon(ends, phase_end - t), self.spec.min_horizon)
+        via, self.via = self.via, None  # Planner sets it at a phase change: the phase's first plan only
+        seed = None if via is None else route_seed(self.sqp, self.ground, T, ends, carried, via)
+        if seed is not None:
+            return Search(phase, seed, t + T, self.spec.phase_iterations, routed=True, via=True)
+        return Search(phase, straight_to(ends, self.M), t + T, self.spec.phase_iterations)
+
+    def _search_step(self, t: float, ends: Ends, load: tuple, key: tuple) -> tuple[Solved, bool]:
+        """This step's share of the search's SQP: (its result, whether the search ended). Ended, a line's plan
+        is taken, asking for a route when not clean (tried at once when its QP failed); a route's is taken when
+        its QP did not fail, else the line's SQP starts (a point to pass) or the plan taken steps on."""
+        search, (carried, width) = self.search, load
+        assert search is not None
+        T = max(search.end - t, self.spec.min_horizon)
+        self._reliefs(key, search.end, carried)
+        solved = self.sqp.solve(search.C, t, T, ends, search.take(self.spec.step_iterations), carried, width)
+        solved = replace(solved, routed=search.routed)
+        if solved.success and not solved.converged and search.left > 0:
+            return solved, False
+        self.search = None
+        if search.routed and not solved.success and search.via:  # no way through the point: the line's SQP
+            self.search = Search(search.phase, straight_to(ends, self.M), search.end, self.spec.phase_iterations)
+            return self._search_step(t, ends, load, key)
+        if search.routed:
+            self._steps_on = not solved.success  # the plan taken (the line's) steps on instead
+            return solved, True
+        if not self.obstacles or is_clean(solved, self.sqp.B, self.obstacles):
+            return solved, True
+        if solved.success:
+            self._route_next = True
+            return solved, True
+        seed = route_seed(self.sqp, self.ground, T, ends, carried)
+        if seed is None:
+            return solved, True
+        self.search = Search(search.phase, seed, search.end, self.spec.phase_iterations, routed=True)
+        routed, ended = self._search_step(t, ends, load, key)
+        if ended and not routed.success:  # neither seed: the failed line's result, nothing taken
+            self._steps_on = False
+            return solved, True
+        return routed, ended
+
+    def _later_step(self, t: float, state: HandState, ends: Ends, phase_end: float, load: tuple, key) -> Solved:
+        """The taken plan from now on, re-planned by `iterations` QPs; when that fails because the hands fell
+        behind its end, the closed-form horizon (the clearance rows' slack is always feasible), which later plans
+        then keep."""
+        carried, width = load
+        C, T = self._later_horizon(t, state, phase_end)
+        self._reliefs(key, t + T, carried)
+        solved = self.sqp.solve(C, t, T, ends, self.spec.iterations, carried, width)
+        if not solved.success and (longer := self.horizon(ends, T)) > T:
+            solved = self.sqp.solve(C, t, longer, ends, self.spec.iterations, carried, width)
         return solved
+
+    def _reliefs(self, key: tuple, end: float, carried) -> None:
+        """The SQP's clearance reliefs for the goal in `key` = (phase, free-handed, goal) at time `end`, computed
+        once per key (goal_reliefs)."""
+        phase, free, goal = key
+        if (phase, free, goal.tobytes()) != self._relief_key:
+            self.sqp.reliefs = goal_reliefs(self.obstacles, goal, end, carried)
+            self._relief_key = (phase, free, goal.tobytes())
+
+    def _later_horizon(self, t: float, state: HandState, phase_end: float) -> tuple[np.ndarray, float]:
+        """The taken plan from now on (de Casteljau) and the horizon a later plan keeps (_kept_horizon)."""
+        assert self.C is not None
+        tau = min(max((t - self.t_plan) / self.T_plan, 0.0), 0.99)  # np.clip costs ~4 us on a float
+        C = self.C @ shift_matrix(self.M, tau) if tau > 0 else self.C.copy()
+        T = self._kept_horizon(C, state, phase_end - t, self.t_plan + self.T_plan - t)
+        return C, max(T, self.spec.min_horizon)
+
+    def _holding(self, t: float, state: HandState, solved: Solved, elapsed: float) -> PlannerResult:
+        """While a first plan's search runs: the last plan taken (before any, the hands held where they are)."""
+        if self.C is None:
+            self.C, self.t_plan, self.T_plan = held(state.positions, state.heading, self.M), t, self.spec.min_horizon
+        plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
+        return PlannerResult(plan, Outcome.SEARCHING, solved.iterations, elapsed, solved.clearance, solved.routed)
 
     def _kept_horizon(self, C: np.ndarray, state: HandState, remaining: float, left: float) -> float:
         """A later plan's horizon: the phase's `remaining` time, or, for a plan `left` [s] to run past the phase's

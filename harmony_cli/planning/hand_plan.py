@@ -68,18 +68,19 @@ Ends = tuple[HandState, np.ndarray, float]  # the measured state, the goal (2, 3
 
 
 class Outcome(Enum):
-    """How a plan ended: its SQP's last step below the tolerance, its iterations spent, or a QP that failed; or a
-    plan not taken because it holds non-finite numbers or the planner's numerics raised."""
+    """How a plan ended: its SQP's last step below the tolerance, its iterations spent, its SQP still running, or a
+    QP that failed; or a plan not taken because it holds non-finite numbers or the planner's numerics raised."""
 
     CONVERGED = "converged"
     STEPPED = "stepped"
+    SEARCHING = "searching"  # a first plan's SQP still running: the last plan is tracked (phase_start.py)
     FAILED = "qp failed"
     NON_FINITE = "non-finite plan"
     ERROR = "exception"
 
     @property
     def success(self) -> bool:
-        return self in (Outcome.CONVERGED, Outcome.STEPPED)
+        return self in (Outcome.CONVERGED, Outcome.STEPPED, Outcome.SEARCHING)
 
 
 SHORT = 5e-3  # [m] a slack above this is a clearance the plan falls short of
