@@ -152,7 +152,7 @@ class GaussNewtonSolver:
         can matter (mpc/row_screen.py): the same optimum as over every row. `relaxed`: see _needs."""
         h, g, lbx, ubx = bounds
         if self.constraints is None:
-            out = qp.solve(h, g, lbx, ubx, DenseRows(A[0]), *r.rows(self.problem.lb, self.problem.ub, x))
+            out = qp.solve(h, g, lbx, ubx, DenseRows(*A), *r.rows(self.problem.lb, self.problem.ub, x))
             return (out.z if out.success else None), out.status, out.rows, out.solves
         # the far rows only where a step like the last (REACH_SAFETY times it) could bring them to their bounds,
         # and again where the step taken could: the same optimum as with them (mpc/far_rows.py)

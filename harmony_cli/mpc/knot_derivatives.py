@@ -85,12 +85,13 @@ class KnotDerivatives:
         return code_path(self._compiling["value"].function)
 
     def _knots(self, kind: str, x: np.ndarray, p: np.ndarray) -> dict[str, np.ndarray]:
-        """Per-knot outputs of one kind at (x, p), cached for the last point asked of that kind."""
+        """Per-knot outputs of one kind at (x, p), cached for the last point asked of that kind: the map's own
+        output buffers, valid until the next evaluation of that kind (every caller reads them at once)."""
         hit = self._cache.get(kind)
         if hit is None or not (np.array_equal(x, hit[0]) and np.array_equal(p, hit[1])):
             nd, npos = self.n_dof, self.B.shape[1]
             out = self.knots[kind](i0=x[: nd * npos].reshape((nd, npos), order="F") @ self.B.T, i1=p)
-            hit = self._cache[kind] = x.copy(), p.copy(), {k: v.copy() for k, v in out.items()}
+            hit = self._cache[kind] = x.copy(), p.copy(), out
         return hit[2]
 
     def reset(self) -> None:

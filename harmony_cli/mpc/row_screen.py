@@ -40,11 +40,11 @@ class Rows(Protocol):
 class DenseRows:
     """Rows given as a dense matrix."""
 
-    def __init__(self, G: np.ndarray):
-        self.G = G
+    def __init__(self, G: np.ndarray, magnitude: np.ndarray | None = None):
+        self.G, self.magnitude = G, np.abs(G) if magnitude is None else magnitude  # |G|, if known already
 
     def reach(self, step: np.ndarray) -> np.ndarray:
-        return np.abs(self.G) @ step
+        return self.magnitude @ step
 
     def times(self, z: np.ndarray) -> np.ndarray:
         return self.G @ z
@@ -113,8 +113,8 @@ class ScreenedQP:
         slots = self._slots(rows.size)
         solver = self._solver(slots)
         a = solver.args["a"].reshape(self.n, slots)  # column-major: a[:, i] is row i
-        a[:] = 0.0
         a[:, : rows.size] = G.take(rows).T
+        a[:, rows.size :] = 0.0
         solver.args["lba"][:] = -np.inf
         solver.args["uba"][:] = np.inf
         solver.args["lba"][: rows.size], solver.args["uba"][: rows.size] = lo[rows], hi[rows]
