@@ -26,7 +26,7 @@ from harmony_cli.maths.bezier import shift_matrix
 from harmony_cli.mpc.problem import NoPlanToHold
 from harmony_cli.planning.hand_plan import Ends, HandState, Obstacle, Outcome, Plan, PlannerResult, Solved
 from harmony_cli.planning.hand_sqp import HandSQP, rate_bounds
-from harmony_cli.planning.phase_start import Search, held, route_seed
+from harmony_cli.planning.phase_start import Awaiting, Search, Step, held, route_seed
 from harmony_cli.planning.plan_base import PlannedBase
 from harmony_cli.planning.plan_checks import goal_reliefs, is_clean
 from harmony_cli.planning.plan_horizon import least_horizon, meets, retimed
@@ -61,8 +61,7 @@ class HandMPC:
         self.phase: int | None = None
         self.t_plan, self.T_plan = 0.0, 1.0
         self.via: np.ndarray | None = None  # (2,) a point a phase's first plan routes through (a chosen stance)
-        self._route_next = False  # whether the next step tries a route (the phase's first plan wants one)
-        self._steps_on = False  # a route's SQP failed: the plan taken steps on, on the same step
+        self._awaiting: Awaiting | None = None  # a line's plan that is not clean, until its route's SQP has run
         self.search: Search | None = None  # the phase's first plan while its SQP runs over the steps
         self._relief_key: tuple | None = None  # the goal whose reliefs the SQP has
         warm_outlines(obstacles, ground)  # before the loop, as the compiled code is loaded
@@ -74,7 +73,7 @@ class HandMPC:
     @property
     def route_pending(self) -> bool:
         """Whether the next step tries a route (the phase's first plan wanted one)."""
-        return self._route_next
+        return self._awaiting is not None
 
     def set_bounds(self, speeds: np.ndarray, accelerations: np.ndarray) -> None:
         """The rate bounds per curve (7,) of the plans from now on (a held box's, planning/grip_force.py): a plan
@@ -109,26 +108,25 @@ class HandMPC:
         width = float(np.linalg.norm(goal[1] - goal[0]))
         if self.search is not None and self.search.phase != phase:
             self.search = None  # the phase changed while its first plan was searched
-        route_now, self._route_next = self._route_next, False
-        if self.search is None and phase != self.phase:  # a new phase: its first plan's search
+        if self._awaiting is not None and self._awaiting.phase != phase:
+            self._awaiting = None
+        solved, how, key, load = None, Step.ENDED, (phase, carried is None, goal), (carried, width)
+        if self._awaiting is not None:  # the line's plan wants a route: its SQP from this step on
+            how = self._route_search(t, ends, carried)
+        elif self.search is None and phase != self.phase:  # a new phase: its first plan's search
             self.search = self._phase_search(t, ends, phase, phase_end, carried)
-        elif self.search is None and route_now:  # the first plan wants a route: its SQP alone on this step
-            T = self._later_horizon(t, state, phase_end)[1]
-            seed = route_seed(self.sqp, self.ground, T, ends, carried)
-            self.search = None if seed is None else Search(phase, seed, t + T, self.spec.phase_iterations, True)
-        solved, self._steps_on, key = None, False, (phase, carried is None, goal)
         if self.search is not None:
-            solved, ended = self._search_step(t, ends, (carried, width), key)
-            if not ended:
+            solved, how = self._search_step(t, ends, load, key)
+            if how is Step.RUNNING:
                 return self._holding(t, state, solved, time.perf_counter() - start_time)
-        if self.search is None and self.phase == phase and (self._steps_on or solved is None):
-            solved = self._later_step(t, state, ends, phase_end, (carried, width), key)
+        if solved is None or how is Step.LINE_TAKEN:  # a later plan: the plan taken steps on
+            solved = self._later_step(t, state, ends, phase_end, load, key)
         assert solved is not None  # a phase without a plan taken has a search
         outcome = solved.outcome
         if outcome.success and not np.isfinite(solved.C).all():  # NaN / inf never becomes the plan: the last is held
             outcome = Outcome.NON_FINITE
         if outcome.success:
-            self.C, self.phase, self.t_plan, self.T_plan = solved.C, phase, t, solved.T
+            self._take(solved, phase, t)
         if self.C is None:
             raise NoPlanToHold(f"first planner solve failed ({solved.status}); no plan to hold")
         plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
@@ -147,10 +145,24 @@ class HandMPC:
             return Search(phase, seed, t + T, self.spec.phase_iterations, routed=True, via=True)
         return Search(phase, straight_to(ends, self.M), t + T, self.spec.phase_iterations)
 
-    def _search_step(self, t: float, ends: Ends, load: tuple, key: tuple) -> tuple[Solved, bool]:
-        """This step's share of the search's SQP: (its result, whether the search ended). Ended, a line's plan
-        is taken, asking for a route when not clean (tried at once when its QP failed); a route's is taken when
-        its QP did not fail, else the line's SQP starts (a point to pass) or the plan taken steps on."""
+    def _route_search(self, t: float, ends: Ends, carried) -> Step:
+        """The route's search after a line's plan that is not clean, seeded now; where there is no route, the
+        line's plan is taken as of its own step."""
+        awaiting, self._awaiting = self._awaiting, None
+        assert awaiting is not None
+        end = awaiting.t + awaiting.line.T
+        seed = route_seed(self.sqp, self.ground, max(end - t, self.spec.min_horizon), ends, carried)
+        if seed is not None:
+            self.search = Search(awaiting.phase, seed, end, self.spec.phase_iterations, True, line=awaiting)
+            return Step.RUNNING
+        self._take(awaiting.line, awaiting.phase, awaiting.t)
+        return Step.LINE_TAKEN
+
+    def _search_step(self, t: float, ends: Ends, load: tuple, key: tuple) -> tuple[Solved, Step]:
+        """This step's share of the search's SQP and how it ended. A line's plan is taken when it is clean; when
+        it is not, the route's SQP starts on the next step (at once when the line's QP failed) and the route's
+        plan is taken if its QP does not fail, else the line's; a point to pass that no route reaches starts the
+        line's SQP at once."""
         search, (carried, width) = self.search, load
         assert search is not None
         T = max(search.end - t, self.spec.min_horizon)
@@ -158,28 +170,27 @@ class HandMPC:
         solved = self.sqp.solve(search.C, t, T, ends, search.take(self.spec.step_iterations), carried, width)
         solved = replace(solved, routed=search.routed)
         if solved.success and not solved.converged and search.left > 0:
-            return solved, False
+            return solved, Step.RUNNING
         self.search = None
         if search.routed and not solved.success and search.via:  # no way through the point: the line's SQP
             self.search = Search(search.phase, straight_to(ends, self.M), search.end, self.spec.phase_iterations)
             return self._search_step(t, ends, load, key)
         if search.routed:
-            self._steps_on = not solved.success  # the plan taken (the line's) steps on instead
-            return solved, True
+            if solved.success or search.line is None:
+                return solved, Step.ENDED
+            self._take(search.line.line, search.phase, search.line.t)  # the line's plan, as of its own step
+            return solved, Step.LINE_TAKEN
         if not self.obstacles or is_clean(solved, self.sqp.B, self.obstacles):
-            return solved, True
+            return solved, Step.ENDED
         if solved.success:
-            self._route_next = True
-            return solved, True
+            self._awaiting = Awaiting(search.phase, solved, t)
+            return solved, Step.RUNNING
         seed = route_seed(self.sqp, self.ground, T, ends, carried)
         if seed is None:
-            return solved, True
+            return solved, Step.ENDED
         self.search = Search(search.phase, seed, search.end, self.spec.phase_iterations, routed=True)
-        routed, ended = self._search_step(t, ends, load, key)
-        if ended and not routed.success:  # neither seed: the failed line's result, nothing taken
-            self._steps_on = False
-            return solved, True
-        return routed, ended
+        routed, how = self._search_step(t, ends, load, key)
+        return (solved if how is Step.ENDED and not routed.success else routed), how
 
     def _later_step(self, t: float, state: HandState, ends: Ends, phase_end: float, load: tuple, key) -> Solved:
         """The taken plan from now on, re-planned by `iterations` QPs; when that fails because the hands fell
@@ -192,6 +203,10 @@ class HandMPC:
         if not solved.success and (longer := self.horizon(ends, T)) > T:
             solved = self.sqp.solve(C, t, longer, ends, self.spec.iterations, carried, width)
         return solved
+
+    def _take(self, solved: Solved, phase: int, t: float) -> None:
+        """`solved`'s plan, over [t, t + its horizon], is the plan the hands track from now on."""
+        self.C, self.phase, self.t_plan, self.T_plan = solved.C, phase, t, solved.T
 
     def _reliefs(self, key: tuple, end: float, carried) -> None:
         """The SQP's clearance reliefs for the goal in `key` = (phase, free-handed, goal) at time `end`, computed
@@ -214,7 +229,9 @@ class HandMPC:
         if self.C is None:
             self.C, self.t_plan, self.T_plan = held(state.positions, state.heading, self.M), t, self.spec.min_horizon
         plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
-        return PlannerResult(plan, Outcome.SEARCHING, solved.iterations, elapsed, solved.clearance, solved.routed)
+        return PlannerResult(
+            plan, Outcome.SEARCHING, solved.iterations, elapsed, solved.clearance, solved.routed, solved.shortfall
+        )
 
     def _kept_horizon(self, C: np.ndarray, state: HandState, remaining: float, left: float) -> float:
         """A later plan's horizon: the phase's `remaining` time, or, for a plan `left` [s] to run past the phase's

@@ -6,14 +6,16 @@ horizon from the rate bounds), so the only question is which seed.
 Each SQP may take `phase_iterations` QPs, at most `step_iterations` of them on one control step; it goes on from its
 iterate on the next steps. An SQP that has not ended is not a plan: the hands track the last plan taken until it
 ends (the last phase's, which ends at rest at its goal; before any, where they are), so that a held box never
-follows a half-solved path. The line's plan is taken when its SQP ends; a route's SQP starts on the next step when
-that plan is not clean, or on the same step when the line's QP failed; a phase with a point to pass (`via`: a base
-pose that works at a blocked stance, planning/stance_pose.py) starts with the route through it. Bounding a step's
+follows a half-solved path. The line's plan is taken when its SQP ends clean; when it does not, a route's SQP starts
+on the next step (on the same step when the line's QP failed), and the route's plan is taken when its QP does not
+fail, else the line's; a phase with a point to pass (`via`: a base pose that works at a blocked stance,
+planning/stance_pose.py) starts with the route through it. Bounding a step's
 work keeps the loop's slowest steps near its median (hand_mpc.py)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import Enum
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -21,15 +23,34 @@ import numpy as np
 from harmony_cli.planning.plan_seed import fix_ends, on_route, straight_to
 
 if TYPE_CHECKING:
-    from harmony_cli.planning.hand_plan import Ends
+    from harmony_cli.planning.hand_plan import Ends, Solved
     from harmony_cli.planning.hand_sqp import HandSQP
     from harmony_cli.planning.plan_seed import Ground
+
+
+class Step(Enum):
+    """How a search's step ended: its SQP goes on (the last plan is tracked), its result is the step's plan (taken
+    when its QP did not fail), or the route failed and the line's plan was taken, to step on from now."""
+
+    RUNNING = "running"
+    ENDED = "ended"
+    LINE_TAKEN = "line taken"
+
+
+@dataclass(frozen=True)
+class Awaiting:
+    """A line's first plan that is not clean, solved at time `t`, while its route's SQP runs."""
+
+    phase: int
+    line: Solved
+    t: float
 
 
 @dataclass
 class Search:
     """One SQP of a phase's first plan, running over control steps: its phase, its iterate (7, M), the time its
-    plan ends, the QPs it may still take; whether it was seeded on a route, and through a point to pass."""
+    plan ends, the QPs it may still take; whether it was seeded on a route, through a point to pass, and after
+    which line's plan."""
 
     phase: int
     C: np.ndarray
@@ -37,6 +58,7 @@ class Search:
     left: int
     routed: bool = False
     via: bool = False
+    line: Awaiting | None = None  # a route's: the line's plan it replaces (taken if the route's QP fails)
 
     def take(self, most: int) -> int:
         """The QPs of this step's share (at most `most`), taken from what is left."""
