@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from harmony_cli.maths.shapes import Shape
@@ -66,3 +68,22 @@ def test_a_route_starts_when_the_line_s_sqp_ends_and_the_hands_hold_still_until_
         held = running.plan.sample(np.linspace(0.0, 5.0, 11))[0]
         np.testing.assert_allclose(held, np.broadcast_to(START, held.shape), atol=1e-12)
     assert results[4].plan.start == 0.08 and results[4].shortfall < 5e-3  # the route's, clear of the cylinder
+
+
+def test_a_route_whose_qp_fails_leaves_the_line_s_plan_taken_as_of_its_own_step_and_stepped_on():
+    planner = HandMPC(PlannerSpec(phase_iterations=6, step_iterations=6), [_cylinder(0.0)], HOME, OFFSET)
+    carried = (0.2, 0.0)
+    line = planner.step(0.0, *ARGS, *carried)
+    assert line.outcome is Outcome.SEARCHING and planner.route_pending
+    solve, calls = planner.sqp.solve, []
+
+    def route_fails(C, t, T, ends, iterations, *rest):
+        solved = solve(C, t, T, ends, iterations, *rest)
+        calls.append(iterations)
+        return replace(solved, outcome=Outcome.FAILED) if len(calls) == 1 else solved
+
+    planner.sqp.solve = route_fails  # type: ignore[method-assign]
+    result = planner.step(0.02, *ARGS, *carried)
+    assert calls == [6, 1]  # the route's SQP, then a real-time iteration of the line's plan from now on
+    assert result.outcome is Outcome.STEPPED and not result.routed and result.plan.start == 0.02
+    assert planner.t_plan == 0.02 and not planner.route_pending

@@ -53,21 +53,23 @@ class GaussNewtonSolver:
         return SolveContext(self.problem, self.path, None if self.constraints is None else self.constraints.margins)
 
     def _qp(self, free: np.ndarray):
-        """(QP, Reduction, kept Hessian nonzeros, their diagonal, how the constraint rows get their values), built
-        once per pattern. The QP's rows are the reduced linear rows, then the linearised constraints."""
+        """(QP, Reduction, the kept Hessian nonzeros (as KnotDerivatives.taking gives them), their diagonal, how the
+        constraint rows get their values), built once per pattern. The QP's rows are the reduced linear rows, then
+        the linearised constraints."""
         if free.tobytes() not in self._qps:
             r, rows, cols, index = Reduction(self.problem.A, free), self.model.rows, self.model.cols, np.cumsum(free)
             kept = np.flatnonzero(free[rows] & free[cols])  # still in CCS order
             h = cs.Sparsity.triplet(r.n, r.n, (index[rows[kept]] - 1).tolist(), (index[cols[kept]] - 1).tolist())
             diagonal = np.flatnonzero(rows[kept] == cols[kept])
+            taken = self.model.taking(kept)
             if self.qp_name in SCREENED:  # dense rows, only those that can matter (mpc/row_screen.py)
                 m = r.A_free.shape[0] + (0 if self.constraints is None else self.constraints.n_rows)
                 screened = ScreenedQP(self.qp_name, self.options, h, m)
                 A = r.A_free.toarray()
-                self._qps[free.tobytes()] = screened, r, kept, diagonal, (A, np.abs(A))
+                self._qps[free.tobytes()] = screened, r, taken, diagonal, (A, np.abs(A))
             else:
                 solver, from_c = self._sparse_qp(free, r, h)
-                self._qps[free.tobytes()] = solver, r, kept, diagonal, from_c
+                self._qps[free.tobytes()] = solver, r, taken, diagonal, from_c
         return self._qps[free.tobytes()]
 
     def _sparse_qp(self, free: np.ndarray, r: Reduction, h: cs.Sparsity):
@@ -105,14 +107,13 @@ class GaussNewtonSolver:
     def solve(self, x0, lbx, ubx, p) -> SolveResult:
         built = time.perf_counter()
         free = lbx < ubx
-        qp, r, kept, diagonal, rows_from = self._qp(free)
+        qp, r, taken, diagonal, rows_from = self._qp(free)
         start = time.perf_counter()
         build_time = start - built  # microseconds unless this pattern is new
         x = np.clip(x0, lbx, ubx)  # the fixed variables are exact from here on
         status, success, qp_rows, qp_solves = "max_iter", False, 0, 0
         for it in range(1, self.max_iter + 1):  # noqa: B007 - the count is returned
-            _, g, vals = self.model.evaluate(x, p)
-            h = vals[kept]
+            _, g, h = self.model.evaluate(x, p, taken)
             h[diagonal] += self.regularisation
             bounds = h, g[free], lbx[free] - x[free], ubx[free] - x[free]
             for relaxed in (False, True) if self.constraints is not None else (False,):

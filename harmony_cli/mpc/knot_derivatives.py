@@ -114,24 +114,32 @@ class KnotDerivatives:
         g[: nd * npos] += 2 * (self.B.T @ np.einsum("kmi,km->ki", J, r)).ravel()
         return float(r.ravel() @ r.ravel() + r_lin @ r_lin), g
 
-    def hessian(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """Hessian values on the pattern (rows, cols)."""
+    def taking(self, nonzeros: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """What `hessian` needs to give only the pattern's `nonzeros` (indices into it): made once per subset."""
+        return self.nl_index[nonzeros], self.lin_vals[nonzeros]
+
+    def hessian(self, x: np.ndarray, p: np.ndarray, taken: tuple | None = None) -> np.ndarray:
+        """Hessian values on the pattern (rows, cols), or only at the nonzeros `taken` (`taking`) stands for."""
         K = self.B.shape[0]
         if self.exact:
             H_k = self._knots("hessian", x, p)["o0"].reshape(K, -1)
         else:
             J = self._knots("gradient", x, p)["o1"].reshape(K, self.m, self.n_dof)
             H_k = 2 * np.matmul(J.transpose(0, 2, 1), J).reshape(K, -1)
-        return self.lin_vals + self.assemble(H_k)
+        if taken is None:
+            return self.lin_vals + self.assemble(H_k)
+        index, linear = taken
+        return linear + self.assemble(H_k, index)
 
-    def assemble(self, H_k: np.ndarray) -> np.ndarray:
-        """sum_k kron(b_k b_k^T, H_k) on the pattern (rows, cols), from per-knot blocks H_k (K x n_dof^2)."""
+    def assemble(self, H_k: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
+        """sum_k kron(b_k b_k^T, H_k) on the pattern (rows, cols), from per-knot blocks H_k (K x n_dof^2); at the
+        block entries `index` (of nl_index) if given."""
         np.matmul(self.W, H_k, out=self._blocks[:-1].reshape(self.W.shape[0], -1))
-        return self._blocks[self.nl_index]
+        return self._blocks[self.nl_index if index is None else index]
 
-    def evaluate(self, x: np.ndarray, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-        """(f, gradient, Hessian values)."""
-        return *self.gradient(x, p), self.hessian(x, p)
+    def evaluate(self, x: np.ndarray, p: np.ndarray, taken: tuple | None = None):
+        """(f, gradient, Hessian values), those at the nonzeros `taken` (`taking`) stands for only if given."""
+        return *self.gradient(x, p), self.hessian(x, p, taken)
 
     def __call__(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Dense (H, gradient)."""
