@@ -11,6 +11,7 @@ import numpy as np
 
 from harmony_cli.experiment.faults import RunFault
 from harmony_cli.experiment.health import Health
+from harmony_cli.experiment.memory import reserve_heap
 from harmony_cli.experiment.replay_log import ReplayLog
 from harmony_cli.experiment.step_log import step_record
 from harmony_cli.mpc.knot_params import hand_rows
@@ -114,7 +115,8 @@ def _check_finite(command: Command, t: float, status: str) -> None:
 @contextmanager
 def collector_frozen() -> Iterator[None]:
     """The set-up's objects out of the garbage collector's scans (a full collection of them pauses tens of ms
-    mid-loop); back in when the loop ends however it ends."""
+    mid-loop), back in when the loop ends however it ends; the heap reserved before it (memory.py)."""
+    reserve_heap()
     gc.collect()
     gc.freeze()
     try:
