@@ -19,7 +19,7 @@ import numpy as np
 
 from harmony_cli.mpc.codegen import Buffered
 
-SLOT_STEP = 16  # rows are padded to a multiple of this: one solver per size, few sizes
+SLOT_STEP = 16  # rows are padded to a multiple of this: one solver per size, few sizes (0 rows: none)
 REACH_SAFETY = 2.0  # a row is kept when a step twice the size of the last one could reach its bound
 FEASIBILITY = 1e-9  # a dropped row violated by more than this is added
 
@@ -75,12 +75,12 @@ class ScreenedQP:
     def prepare(self) -> None:
         """A solver for every padded row count built now (0.2-0.5 ms each): none is built mid-loop, where a
         jump in the references first needs more rows."""
-        for slots in range(SLOT_STEP, max(self.m, 1) + SLOT_STEP, SLOT_STEP):
-            self._solver(self._slots(slots))
+        for rows in range(0, self.m + SLOT_STEP, SLOT_STEP):
+            self._solver(self._slots(rows))
 
     def _slots(self, rows: int) -> int:
-        """The padded row count of a QP over `rows` rows."""
-        return min(-(-max(rows, 1) // SLOT_STEP) * SLOT_STEP, max(self.m, 1))
+        """The padded row count of a QP over `rows` rows (none: no padding rows either)."""
+        return min(-(-rows // SLOT_STEP) * SLOT_STEP, self.m)
 
     def _solver(self, slots: int) -> Buffered:
         if slots not in self._solvers:
