@@ -90,10 +90,11 @@ class PlannerSpec(Strict):
     iterations: int = Field(1, ge=1, description="SQP iterations per re-plan (1: real-time iteration)")
     phase_iterations: int = Field(10, ge=1, description="SQP iterations of a phase's first plan")
     step_iterations: int = Field(
-        10,
+        2,
         ge=1,
         description="the most SQP iterations of a phase's first plan on one control step: the rest run on the "
-        "next steps, the plan so far tracked meanwhile (bounds a step's time)",
+        "next steps while the hands track the last plan taken (bounds a step's time; = phase_iterations: all at "
+        "once)",
     )
     tol: PositiveFloat = Field(1e-5, description="SQP step tolerance [m]")
     qp: QpName = "daqp"
