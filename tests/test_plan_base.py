@@ -8,11 +8,11 @@ import numpy as np
 from harmony_cli.maths.bezier import bernstein_basis
 from harmony_cli.maths.shapes import Shape
 from harmony_cli.planning.hand_mpc import HandMPC
-from harmony_cli.planning.hand_plan import HandState, Obstacle
+from harmony_cli.planning.hand_plan import HandState, Obstacle, Outcome
 from harmony_cli.planning.plan_base import PlannedBase
 from harmony_cli.scenario import PlannerSpec
 
-SPEC = PlannerSpec()
+SPEC = PlannerSpec(step_iterations=PlannerSpec().phase_iterations)  # first plans in one step: test_first_plan.py
 HOME = np.stack([np.eye(3), np.eye(3)])
 OFFSET = np.pi / 2  # hand 0 at +y, hand 1 at -y: heading 0 faces +x
 START = np.array([[0.76, 0.15, 0.93], [0.76, -0.15, 0.93]])
@@ -88,8 +88,13 @@ def test_screen_is_a_lower_bound_of_the_footprint_margin():
 
 
 def _plan(obstacles: list[Obstacle], base: PlannedBase | None, goal=GOAL):
+    """The first plan taken: the search's steps until it ends (a route's after a line's plan that is not clean)."""
     planner = HandMPC(SPEC, obstacles, HOME, OFFSET, None, base)
-    return planner.step(0.0, HandState(START, np.zeros((2, 3)), 0.0), goal, 6.0, 0)
+    for _ in range(3):
+        result = planner.step(0.0, HandState(START, np.zeros((2, 3)), 0.0), goal, 6.0, 0)
+        if result.outcome is not Outcome.SEARCHING:
+            return result
+    raise AssertionError("the first plan's search did not end")
 
 
 def _footprint_margins(base: PlannedBase, result) -> np.ndarray:

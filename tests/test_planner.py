@@ -13,7 +13,7 @@ from harmony_cli.planning.hand_sqp import rate_bounds
 from harmony_cli.planning.plan_horizon import least_horizon, meets, retimed
 from harmony_cli.scenario import PlannerSpec
 
-SPEC = PlannerSpec()
+SPEC = PlannerSpec(step_iterations=PlannerSpec().phase_iterations)  # first plans in one step: test_first_plan.py
 HOME = np.stack([np.eye(3), np.eye(3)])
 OFFSET = np.pi / 2  # hand 0 at +y, hand 1 at -y: heading 0 faces +x
 START = np.array([[0.76, 0.15, 0.93], [0.76, -0.15, 0.93]])

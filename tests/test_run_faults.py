@@ -70,7 +70,7 @@ def _faulty_solver(monkeypatch, first: int, last: float, kind: str) -> None:
             huge = np.where(np.arange(result.x.size) % 2, 1.7e308, -1.7e308)
             return replace(result, x=huge if kind == "huge" else np.full_like(result.x, np.nan))
 
-        return SimpleNamespace(path=solver.path, solve=solve)
+        return SimpleNamespace(path=solver.path, solve=solve, prepare=solver.prepare)
 
     monkeypatch.setattr(wholebody, "make_solver", make)
 
