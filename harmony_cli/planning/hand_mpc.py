@@ -10,8 +10,9 @@ the phase's: a carry slowed for a moment (grip_force.py) does not stay slow.
 Global guidance: a local SQP linearised at the straight line cannot find its way round an obstacle on it. A
 phase's first plan that does not converge, falls short of a clearance or splits the hands asks for the SQP from
 the straight line moved onto the shortest planar route round obstacles and tables, wide enough for the base
-(plan_seed, route.py), on the next step, instead of that plan's own step. A phase with a point to pass (`via`: a
-base pose that works at a blocked stance, planning/stance_pose.py) gets the route through it at once (phase_start.py).
+(plan_seed, route.py), on the next step, and is taken instead of it unless the route's QP fails; until a first
+plan is taken the hands track the last one. A phase with a point to pass (`via`: a base pose that works at a blocked
+stance, planning/stance_pose.py) gets the route through it at once (phase_start.py).
 """
 
 from __future__ import annotations
