@@ -137,7 +137,9 @@ class KnotDerivatives:
         np.matmul(self.W, H_k, out=self._blocks[:-1].reshape(self.W.shape[0], -1))
         return self._blocks[self.nl_index if index is None else index]
 
-    def evaluate(self, x: np.ndarray, p: np.ndarray, taken: tuple | None = None):
+    def evaluate(
+        self, x: np.ndarray, p: np.ndarray, taken: tuple | None = None
+    ) -> tuple[float, np.ndarray, np.ndarray]:
         """(f, gradient, Hessian values), those at the nonzeros `taken` (`taking`) stands for only if given."""
         return *self.gradient(x, p), self.hessian(x, p, taken)
 

@@ -113,7 +113,7 @@ class HandMPC:
             self._awaiting = None
         solved, how, key, load = None, Step.ENDED, (phase, carried is None, goal), (carried, width)
         if self._awaiting is not None:  # the line's plan wants a route: its SQP from this step on
-            how = self._route_search(t, ends, carried)
+            self._route_search(t, ends, carried)
         elif self.search is None and phase != self.phase:  # a new phase: its first plan's search
             self.search = self._phase_search(t, ends, phase, phase_end, carried)
         if self.search is not None:
@@ -146,18 +146,17 @@ class HandMPC:
             return Search(phase, seed, t + T, self.spec.phase_iterations, routed=True, via=True)
         return Search(phase, straight_to(ends, self.M), t + T, self.spec.phase_iterations)
 
-    def _route_search(self, t: float, ends: Ends, carried) -> Step:
+    def _route_search(self, t: float, ends: Ends, carried) -> None:
         """The route's search after a line's plan that is not clean, seeded now; where there is no route, the
-        line's plan is taken as of its own step."""
+        line's plan is taken as of its own step (and steps on: no search)."""
         awaiting, self._awaiting = self._awaiting, None
         assert awaiting is not None
         end = awaiting.t + awaiting.line.T
         seed = route_seed(self.sqp, self.ground, max(end - t, self.spec.min_horizon), ends, carried)
         if seed is not None:
             self.search = Search(awaiting.phase, seed, end, self.spec.phase_iterations, True, line=awaiting)
-            return Step.RUNNING
-        self._take(awaiting.line, awaiting.phase, awaiting.t)
-        return Step.LINE_TAKEN
+        else:
+            self._take(awaiting.line, awaiting.phase, awaiting.t)
 
     def _search_step(self, t: float, ends: Ends, load: tuple, key: tuple) -> tuple[Solved, Step]:
         """This step's share of the search's SQP and how it ended. A line's plan is taken when it is clean; when
