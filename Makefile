@@ -5,7 +5,7 @@ STAMP := $(VENV)/.installed
 HARMONY := $(VENV)/bin/harmony
 TABLE1 := scenarios/paper/table1_s_shape.yaml
 
-.PHONY: install lint test test-slow bench reproduce-paper engines robots-unedited study study-validation study-engines docs clean
+.PHONY: install lint test test-slow bench reproduce-paper engines robots-unedited study study-validation docs clean
 
 # Ranges live in pyproject.toml; constraints.txt pins the versions every install uses (refresh it with
 # `.venv/bin/pip freeze | grep -v '^-e' > constraints.txt` after a deliberate upgrade).
@@ -98,19 +98,14 @@ robots-unedited: $(STAMP)
 		--name robots_unedited
 
 # pick_and_carry over randomised scenes on 2 local jobs (resumable: started again, it runs what is missing): `study`
-# runs the 100 draws for development (dev), `study-validation` the 200 that are run to report, never to choose
-# between variants; their reports, figures and study.parquet are committed under results/studies/ (the run
-# directories are not)
+# runs the 100 draws for development (dev) in PyBullet; `study-validation` the 200 that are run to report, never to
+# choose between variants, in both physics engines side by side with the draws where they disagree (~75 min); their
+# reports, figures and study.parquet are committed under results/studies/ (the run directories are not)
 study: $(STAMP)
 	$(HARMONY) study studies/pick_and_carry_random.yaml --draws dev --jobs 2
 
 study-validation: $(STAMP)
-	$(HARMONY) study studies/pick_and_carry_random.yaml --draws validation --jobs 2
-
-# the validation draws in both physics engines, side by side, with the draws where they disagree (~90 min)
-study-engines: $(STAMP)
-	$(HARMONY) study studies/pick_and_carry_random.yaml --draws validation --grid sim.engine=pybullet,mujoco \
-		--jobs 2 --out results/studies/pick_and_carry_engines/validation
+	$(HARMONY) study studies/pick_and_carry_random.yaml --draws validation --grid sim.engine=pybullet,mujoco --jobs 2
 
 clean:
 	rm -rf results/runs results/compare results/bench results/robots_unedited/runs results/paper/runs results/paper/push_recovery results/paper/robots .pytest_cache .hypothesis
