@@ -164,8 +164,8 @@ def test_sigterm_to_a_study_ends_its_runs_cleanly_keeps_the_table_and_a_rerun_is
     command = [str(harmony), "study", str(path), "--out", str(out), "--jobs", "2", "--quiet", "--plots", "none"]
     proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 120
-    while len([p for p in out.glob("runs/*/steps.jsonl") if p.stat().st_size]) < 2:
-        assert proc.poll() is None and time.time() < deadline, proc.communicate()
+    while len([p for p in out.glob("runs/**/steps.jsonl") if p.stat().st_size]) < 2:
+        assert proc.poll() is None and time.time() < deadline, (proc.kill(), proc.communicate())
         time.sleep(0.1)
     proc.send_signal(signal.SIGTERM)
     _, stderr = proc.communicate(timeout=90)
@@ -249,9 +249,16 @@ def test_the_report_s_denominator_counts_a_no_stance_draw_and_not_a_refused_or_u
     report = _report_of(tmp_path, outcomes, [[]] * len(outcomes))
     assert (  # success, no stance, the late success and the drop are draws; the late success is a success
         "2 successes of 4 draws (50 %, Wilson 95 % 15 % - 85 %); 1 refused as impossible (1 no passage for the "
-        "base); 1 of the successes had a phase that ended late (it waited for its goal); 1 runs without a result "
-        "(interrupted or not run), not counted." in report
+        "base); 1 of the successes had a phase that ended late (it waited for its goal); 1 of its 6 runs without a "
+        "result (interrupted or not run), not counted." in report
     ), report
+
+
+def test_the_report_s_table_says_per_grid_point_what_was_planned_run_succeeded_failed_refused_and_not_run(tmp_path):
+    outcomes = ["success", "no stance", "success, a phase late", "impossible", "interrupted", "dropped"]
+    report = _report_of(tmp_path, outcomes, [[]] * len(outcomes))
+    header = "| grid point | planned | draws run | successes | failed | rate | Wilson 95 % | refused as impossible |"
+    assert f"{header} not run |" in report and "| base | 6 | 4 | 2 | 2 | 50 % | 15 % - 85 % | 1 | 1 |" in report
 
 
 def test_each_set_of_draws_has_its_own_seed_and_directory_and_a_set_not_in_the_file_needs_a_seed(tmp_path):

@@ -29,11 +29,16 @@ def study(
     grid: list[str] = typer.Option(
         [], help="A grid axis added to the study's, field=v1,v2,... (repeatable), e.g. sim.engine=pybullet,mujoco"
     ),
+    run_timeout: float | None = typer.Option(
+        None,
+        help="Each run's wall-time limit [s]; a run past it ends as failure `timeout` with its logs (0: none; "
+        "default: 120 s + 10 s per simulated second)",
+    ),
 ):
     """Run a study (randomised scenes x grid, resumable) and write study.parquet and its report; or, as `harmony
     study report DIR`, write the report of a study directory again."""
     from harmony_cli.experiment.interrupts import RunInterrupted
-    from harmony_cli.study.report import headline, success_rates, write_report
+    from harmony_cli.study.report import write_report
     from harmony_cli.study.runner import PLOTS, Options, run_study
 
     if target == "report":
@@ -48,7 +53,7 @@ def study(
     if plots not in PLOTS:
         fail(f"--plots: {plots!r} is not valid; choose one of: {', '.join(PLOTS)}")
     reruns = tuple(r for r in rerun.split(",") if r)
-    options = Options(out, jobs, ray, draws, seed, samples, reruns, plots, not quiet, tuple(grid))
+    options = Options(out, jobs, ray, draws, seed, samples, reruns, plots, not quiet, tuple(grid), run_timeout)
     try:
         outcome = run_study(Path(target), options)
     except ScenarioError as exc:
@@ -60,8 +65,16 @@ def study(
             f"{exc.signal_name}; the runs so far and study.parquet are in {options.out or 'results/studies'}",
         )
         raise typer.Exit(exc.exit_code) from None
+    _tell(outcome)
+
+
+def _tell(outcome) -> None:
+    """The report's files, each grid point's headline, and how many runs ran how fast."""
+    from harmony_cli.study.report import headline, success_rates, write_report
+
     for path in write_report(outcome.out):
         typer.echo(literal(str(path)))
     for r in success_rates(outcome.table).itertuples():
         typer.echo(literal(f"{r.point}: {headline(r, outcome.table[outcome.table['point'] == r.point])}"))
-    typer.echo(f"{outcome.ran} runs ran, {outcome.skipped} found done")
+    pace = f" in {outcome.minutes:.1f} min ({outcome.ran / outcome.minutes:.1f} runs per minute)" if outcome.ran else ""
+    typer.echo(f"{outcome.ran} runs ran{pace}, {outcome.skipped} found done")

@@ -18,7 +18,14 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from harmony_cli.console import warn
 from harmony_cli.experiment.faults import HeldPlans, RunFault, Writes, failed, fault_of
 from harmony_cli.experiment.health import Health, check_start
-from harmony_cli.experiment.interrupts import Guard, RunInterrupted, interrupted_summary, signals_end_the_run
+from harmony_cli.experiment.interrupts import (
+    Guard,
+    RunInterrupted,
+    RunTimedOut,
+    interrupted_summary,
+    signals_end_the_run,
+    steps_so_far,
+)
 from harmony_cli.experiment.loop import Watch, run_loop
 from harmony_cli.experiment.replay_log import ReplayLog
 from harmony_cli.experiment.results import RunRecord, finish_run
@@ -205,6 +212,19 @@ def _recorder(built: Built, video: Path | None) -> VideoRecorder | None:
     return VideoRecorder(video, built.sim.camera(VIDEO_SIZE, follow), fps=VIDEO_FPS)
 
 
+def _stopped(exc: RunInterrupted, rows: list[dict]) -> dict:
+    """summary.json's fields for a run stopped by a signal (interrupted) or by its wall-time limit (failed)."""
+    if isinstance(exc, RunTimedOut):
+        return failed("timeout", f"its wall-time limit was reached; stopped {steps_so_far(rows)}")
+    return interrupted_summary(exc, rows)
+
+
+def _stopped_line(summary: dict) -> str:
+    """run.log's line for a stopped run: its reason, as a failure's when it failed (the wall-time limit)."""
+    failure = summary.get("failure")
+    return f"run failed ({failure}): {summary['reason']}" if failure else summary["reason"]
+
+
 def execute(
     scenario: Scenario,
     scenario_dir: Path,
@@ -240,9 +260,11 @@ def execute(
             recorder = _recorder(built, video)
             summary["wall_time_s"] = simulate(built, scenario, rows, stream, log, recorder, progress, replay, guard)
             summary["status"] = "completed"
-        except RunInterrupted as exc:  # a signal: the steps so far are results, not a failure
-            summary |= interrupted_summary(exc, rows)
-            writes("run.log", lambda: log.write(f"{summary['reason']}\n"))
+        except RunInterrupted as exc:  # a signal: the steps so far are results; the wall-time limit: a failure
+            summary |= _stopped(exc, rows)
+            writes("run.log", lambda: log.write(f"{_stopped_line(summary)}\n"))
+            if isinstance(exc, RunTimedOut):
+                raise RunFailed(out, summary["reason"]) from exc
             exc.run_dir = out
             raise
         except BaseException as exc:  # noqa: BLE001 - record why, then report

@@ -1,6 +1,12 @@
-"""Where a study's runs execute: in this process (one job), on a local process pool (`--jobs`), or on a Ray cluster
-(`--ray auto|ADDRESS`). Every engine runs the same function per run, which leaves a run directory; the study
-reads its results from there, so the engines give the same rows.
+"""Where a study's runs execute: in this process (one job), on supervised local workers (`--jobs`, pool.py), or on a
+Ray cluster (`--ray auto|ADDRESS`, ray_engine.py). Every engine runs the same function per run, which leaves a run
+directory; the study reads its results from there, so the engines give the same rows.
+
+A run executes in an attempt directory of its own and becomes a result only when the driver commits it: the attempt
+directory renamed to the run's (atomic: a reader sees all of it or none of it). A run cut off by its driver's death
+is never committed, so a study started again runs it again; a worker killed or lost mid-run, or a run that ignores
+its wall-time limit, is committed by the driver with what its directory holds and the reason (`worker_lost`,
+`timeout`) once retrying is spent.
 
 A signal to the study ends every run in flight cleanly (each keeps its steps and says interrupted), starts no
 more, and propagates."""
@@ -9,20 +15,23 @@ from __future__ import annotations
 
 import io
 import json
-import logging
+import os
+import shutil
 import tarfile
+import uuid
 from collections.abc import Callable, Iterable
-from concurrent.futures import as_completed
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
-from harmony_cli.experiment.interrupts import RunInterrupted, signals_end_the_run
+from harmony_cli.experiment.faults import failed, write_whole
+from harmony_cli.experiment.interrupts import RunTimedOut, signals_end_the_run, wall_time_limit
 from harmony_cli.experiment.pipeline import RunFailed
 from harmony_cli.experiment.run import run_scenario
-from harmony_cli.experiment.workers import end_workers, worker_pool
 from harmony_cli.scenario import ScenarioError
 
 RUN_FILE = "study_run.json"
+SUMMARY = "summary.json"
+ATTEMPTS = ".attempts"  # under a study's runs/: the attempts in flight (never results until committed)
 
 
 @dataclass(frozen=True)
@@ -32,90 +41,93 @@ class Job:
     name: str
     scenario: str  # the base scenario file
     overrides: list[str]
-    run_dir: str
+    run_dir: str  # where its result is committed
     plots: str  # all | failed | none
     record: dict  # written to RUN_FILE: the study, sample, grid point, key, code version
+    timeout: float | None = None  # [s] its wall-time limit
+    attempt: str = ""  # this attempt's directory (attempt_dir)
+
+    @property
+    def attempt_dir(self) -> Path:
+        run_dir = Path(self.run_dir)
+        return run_dir.parent / ATTEMPTS / f"{run_dir.name}-{self.attempt}"
+
+    def again(self) -> Job:
+        """The job as a fresh attempt, in a directory of its own."""
+        return replace(self, attempt=uuid.uuid4().hex[:8])
+
+
+def ended(run_dir: Path) -> bool:
+    """Whether the run in `run_dir` ended on its own: its summary.json is whole and says how (not still running)."""
+    try:
+        return json.loads((run_dir / SUMMARY).read_text()).get("status", "running") != "running"
+    except (OSError, ValueError):
+        return False
 
 
 def run_job(job: Job) -> str:
-    """Run one study run into its directory; its status is in summary.json whatever happens (a run that fails
-    is a result, not an error of the study). Returns the job's name."""
-    out = Path(job.run_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    """Run one study run into its attempt directory; its status is in summary.json whatever happens (a run that
+    fails is a result, not an error of the study). Returns the job's name."""
+    out = job.attempt_dir
+    shutil.rmtree(out, ignore_errors=True)  # a task run again (a lost node's) starts from nothing
+    out.mkdir(parents=True)
     (out / RUN_FILE).write_text(json.dumps(job.record, indent=2))
     try:
-        run_scenario(job.scenario, job.overrides, out, progress=False, plots=job.plots)
+        with wall_time_limit(job.timeout):
+            run_scenario(job.scenario, job.overrides, out, progress=False, plots=job.plots)
     except (RunFailed, ScenarioError, OSError):
         pass  # summary.json and run.log say why
+    except RunTimedOut:  # the limit came before or after the run's loop (its set-up, a push-free twin)
+        end_without_result(out, "timeout", "its wall-time limit was reached outside its control loop")
     return job.name
 
 
+def end_without_result(out: Path, category: str, reason: str) -> None:
+    """A run that did not end on its own, failed with `category` and `reason` in its summary.json; whatever else
+    its directory holds (run.log, steps.jsonl so far) stays."""
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        summary = json.loads((out / SUMMARY).read_text())
+    except (OSError, ValueError):
+        summary = {}
+    summary = summary | failed(category, reason)
+    write_whole(out / SUMMARY, json.dumps(summary, indent=2))
+    with (out / "run.log").open("a") as log:
+        log.write(f"run failed ({category}): {reason}\n")
+
+
+def commit(job: Job) -> None:
+    """The job's attempt becomes its result: the attempt directory renamed to the run's."""
+    attempt, run_dir = job.attempt_dir, Path(job.run_dir)
+    shutil.rmtree(run_dir, ignore_errors=True)
+    os.replace(attempt, run_dir)
+
+
 def run_job_packed(job: Job) -> tuple[str, bytes]:
-    """run_job on a Ray worker, which may be another machine: the run directory comes back as a tar.gz."""
+    """run_job on a Ray worker, which may be another machine: the attempt directory comes back as a tar.gz."""
     run_job(job)
     buffer = io.BytesIO()
     with tarfile.open(fileobj=buffer, mode="w:gz") as tar:
-        tar.add(job.run_dir, arcname=".")
+        tar.add(job.attempt_dir, arcname=".")
     return job.name, buffer.getvalue()
 
 
-def unpack(data: bytes, run_dir: Path) -> None:
-    """A run directory from a worker, where the driver cannot see it (no shared file system)."""
-    if (run_dir / "summary.json").is_file():
+def unpack(data: bytes, attempt_dir: Path) -> None:
+    """An attempt directory from a worker, where the driver cannot see it (no shared file system)."""
+    if ended(attempt_dir):
         return  # the worker wrote it where the driver sees it
-    run_dir.mkdir(parents=True, exist_ok=True)
+    shutil.rmtree(attempt_dir, ignore_errors=True)
+    attempt_dir.mkdir(parents=True)
     with tarfile.open(fileobj=io.BytesIO(data), mode="r:gz") as tar:
-        tar.extractall(run_dir, filter="data")
+        tar.extractall(attempt_dir, filter="data")
 
 
-Done = Callable[[str], None]  # called with a job's name as it finishes
+Done = Callable[[Job], None]  # called with a job whose attempt ended
+Lost = Callable[[Job, str, str], None]  # called with a job that did not end on its own: category, reason
 
 
 def run_here(jobs: Iterable[Job], done: Done) -> None:
     with signals_end_the_run():
         for job in jobs:
-            done(run_job(job))
-
-
-def run_pool(jobs: list[Job], workers: int, done: Done) -> None:
-    with signals_end_the_run(), worker_pool(workers) as pool:
-        try:
-            for future in as_completed([pool.submit(run_job, job) for job in jobs]):
-                done(future.result())
-        except RunInterrupted:
-            end_workers(pool)
-            raise
-
-
-def run_ray(jobs: list[Job], address: str, done: Done) -> None:
-    """On a Ray cluster (`auto`: the one this machine belongs to, or a local one started for the study; or a
-    cluster's address). Each run takes one CPU; its directory comes back to this machine."""
-    try:
-        import ray
-    except ImportError:
-        raise ScenarioError("--ray needs Ray: pip install 'harmony-cli[ray]' (or `make install`)") from None
-    started = not ray.is_initialized()
-    if started:
-        try:
-            ray.init(address=address, logging_level=logging.ERROR, log_to_driver=False)
-        except ConnectionError:
-            if address != "auto":
-                raise ScenarioError(f"--ray {address}: no Ray cluster answers there") from None
-            ray.init(logging_level=logging.ERROR, log_to_driver=False)  # no cluster running: a local one for this study
-    remote = ray.remote(num_cpus=1, max_retries=0)(run_job_packed)
-    pending = {remote.remote(job): job for job in jobs}
-    try:
-        with signals_end_the_run():
-            while pending:
-                ready, _ = ray.wait(list(pending), num_returns=1)
-                job = pending.pop(ready[0])
-                name, data = ray.get(ready[0])
-                unpack(data, Path(job.run_dir))
-                done(name)
-    except RunInterrupted:
-        for ref in pending:
-            ray.cancel(ref)  # SIGINT to the worker: its run writes its results and stops
-        raise
-    finally:
-        if started:
-            ray.shutdown()
+            run_job(job)
+            done(job)

@@ -41,6 +41,7 @@ class PlannedRun:
     point: dict[str, Any]  # grid field -> value ({} without a grid)
     overrides: list[str]  # everything `harmony run` gets after the base scenario, in order
     key: str  # hash of the resolved scenario and the code version
+    duration: float = 0.0  # [s] its simulated duration as written (sim.duration)
 
     @property
     def label(self) -> str:
@@ -79,7 +80,9 @@ def plan_runs(spec: StudySpec, sampler: Sampler, samples: int, progress=None) ->
         sample = sampler.sample(i)
         for point in sampler.points:
             overrides = sample.overrides + point_overrides(point)
-            runs.append(PlannedRun(sample, point, overrides, run_key(sampler.scenario(overrides), sampler.path)))
+            scenario = sampler.scenario(overrides)
+            key = run_key(scenario, sampler.path)
+            runs.append(PlannedRun(sample, point, overrides, key, scenario.sim.duration))
         if progress is not None:
             progress(i + 1, total)
     return runs

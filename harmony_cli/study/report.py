@@ -59,9 +59,10 @@ def varied_columns(table: pd.DataFrame) -> list[str]:
 
 
 def success_rates(table: pd.DataFrame) -> pd.DataFrame:
-    """Per grid point: `runs` (the draws the controller was given, with a result), successes (`late`: those with a
-    phase that ended late), rate, Wilson 95 % interval, `refused` (draws refused as impossible: drawn again before
-    they ran, or ended so before the robot moved) and the runs without a result."""
+    """Per grid point: `planned` (its runs), `runs` (the draws the controller was given, with a result), successes
+    (`late`: those with a phase that ended late), rate, Wilson 95 % interval, `refused` (draws refused as
+    impossible: drawn again before they ran, or ended so before the robot moved) and the runs without a result
+    (interrupted, cut off or not run yet)."""
     out = []
     for point, runs in table.groupby("point", sort=False):
         impossible = runs["outcome"] == IMPOSSIBLE
@@ -69,7 +70,8 @@ def success_rates(table: pd.DataFrame) -> pd.DataFrame:
         k, n = int(results["success"].astype(bool).sum()), len(results)
         low, high = wilson(k, n)
         out.append(
-            {"point": point, "runs": n, "successes": k, "rate": k / n if n else math.nan, "low": low, "high": high}
+            {"point": point, "planned": len(runs), "runs": n, "successes": k}
+            | {"rate": k / n if n else math.nan, "low": low, "high": high}
             | {"late": int((results["outcome"] == SUCCESS_LATE).sum())}
             | {"refused": int(_resamples(runs) + impossible.sum()), "no_result": int(runs["success"].isna().sum())}
         )
@@ -119,8 +121,24 @@ def headline(rate, runs: pd.DataFrame) -> str:
     if rate.late:
         line += f"; {rate.late} of the successes had a phase that ended late (it waited for its goal)"
     if rate.no_result:
-        line += f"; {rate.no_result} runs without a result (interrupted or not run), not counted"
+        line += f"; {rate.no_result} of its {rate.planned} runs without a result (interrupted or not run), not counted"
     return line + "."
+
+
+def throughput_lines(study: Path) -> list[str]:
+    """The study's last invocation that ran something, from its log: runs, minutes, runs per minute, where."""
+    log = study / "study_log.jsonl"
+    if not log.is_file():
+        return []
+    lines = [line for line in log.read_text().splitlines() if line.strip()]
+    if not lines:
+        return []
+    last = json.loads(lines[-1])
+    return [
+        "",
+        f"Last ran {last['runs']} runs in {last['minutes']:.1f} min ({last['runs_per_minute']} runs per minute) on "
+        f"{last['engine']} at {last['host']}, ending {last['ended']}.",
+    ]
 
 
 def _draws(table: pd.DataFrame) -> str:
@@ -144,13 +162,15 @@ def write_report(study: Path) -> list[Path]:
     lines = [f"# Study {name}", "", f"{_draws(table)}{len(table)} runs ({TABLE}; one row per run).", ""]
     points = dict(list(table.groupby("point", sort=False)))
     lines += ["## Success rate", ""] + [f"- {r.point}: {headline(r, points[r.point])}" for r in rates.itertuples()]
-    lines += ["", "| grid point | draws | successes | rate | Wilson 95 % | refused as impossible | no result |"]
-    lines += ["|---|---:|---:|---:|---|---:|---:|"]
+    header = "| grid point | planned | draws run | successes | failed | rate | Wilson 95 % | refused as impossible |"
+    lines += ["", header + " not run |"]
+    lines += ["|---|---:|---:|---:|---:|---:|---|---:|---:|"]
     lines += [
-        f"| {r.point} | {r.runs} | {r.successes} | {_pct(r.rate)} | {_pct(r.low)} - {_pct(r.high)} | {r.refused} | "
-        f"{r.no_result} |"
+        f"| {r.point} | {r.planned} | {r.runs} | {r.successes} | {r.runs - r.successes} | {_pct(r.rate)} | "
+        f"{_pct(r.low)} - {_pct(r.high)} | {r.refused} | {r.no_result} |"
         for r in rates.itertuples()
     ]
+    lines += throughput_lines(study)
     counts = table.groupby(["point", "outcome"], sort=False).size().unstack(fill_value=0)
     lines += ["", "## Outcomes by category", "", _markdown(counts.reset_index())]
     lines += disagreement_lines(table)

@@ -16,6 +16,8 @@ from harmony_cli.study.plan import PlannedRun
 
 TABLE = "study.parquet"
 NOT_RUN = ("interrupted", "killed", "running", "not run")  # statuses that are no result (the run did not end)
+# a run cut off (its driver died) or a directory without a whole summary: no result, and run again when the study is
+INCOMPLETE = ("killed", "running")
 # Outcomes of a run that ended before the robot moved: a proof from geometry that the scene has no solution (not a
 # draw of the controller's: out of the denominator), or the controller's stance search finding none (its failure)
 IMPOSSIBLE, NO_STANCE = "impossible", "no stance"
@@ -31,10 +33,11 @@ def _failed_first(summary: dict) -> dict | None:
 
 def outcome(summary: dict) -> str:
     """success (or success with a phase that ended late: it waited for its goal and reached it) | a task failure
-    (dropped, collision, stalled, ...) | impossible | no stance | `run failed: <category>` | interrupted | not run."""
+    (dropped, collision, stalled, ...) | impossible | no stance | `run failed: <category>` (timeout, worker_lost,
+    ...) | interrupted | incomplete | not run."""
     status = summary.get("status", "not run")
     if status in NOT_RUN:
-        return "interrupted" if status != "not run" else status
+        return "incomplete" if status in INCOMPLETE else status
     if first := _failed_first(summary):
         return first["category"]
     if status != "completed":
