@@ -5,6 +5,7 @@ mid-run. The runs are the smoke box lift (studies/smoke_box_lift.yaml) or stand-
 from __future__ import annotations
 
 import json
+import os
 import signal
 import socket
 import subprocess
@@ -21,6 +22,7 @@ from test_study import STUDY, TIMING
 from harmony_cli.study import pool
 from harmony_cli.study.execute import ATTEMPTS, Job, commit, end_without_result, ended
 from harmony_cli.study.lock import LOCK
+from harmony_cli.study.ray_engine import RAY_RETRIES
 from harmony_cli.study.runner import Options, plan_study, run_study
 from harmony_cli.study.table import TABLE
 
@@ -234,3 +236,44 @@ def test_a_ray_node_lost_mid_study_leaves_every_row_once_and_the_rows_of_an_undi
     left = undisturbed.table.sort_values("sample")[columns].reset_index(drop=True)
     right = on_ray.table.sort_values("sample")[columns].reset_index(drop=True)
     pd.testing.assert_frame_equal(left, right)
+
+
+def _ray_worker_running_a_run() -> int | None:
+    """The pid of a Ray worker executing a study run (its process title names the task), if any."""
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        try:
+            if b"ray::run_job_packed" in cmdline.read_bytes():
+                return int(cmdline.parent.name)
+        except OSError:
+            continue
+    return None
+
+
+@pytest.mark.slow  # ~1 min: a local Ray whose worker is killed on every attempt of a run
+def test_a_ray_worker_killed_on_every_attempt_leaves_a_worker_lost_row_not_a_missing_one(tmp_path):
+    ray = pytest.importorskip("ray")
+    import threading
+
+    study, out = _study(tmp_path, 3600.0, 1), tmp_path / "out"
+    kills: list[int] = []
+
+    def kill_every_attempt() -> None:  # each of Ray's attempts, once it runs, loses its worker (as to an OOM kill)
+        deadline = time.time() + 240
+        while len(kills) < RAY_RETRIES + 1 and time.time() < deadline:
+            pid = _ray_worker_running_a_run()
+            if pid is not None and pid not in kills and any(out.glob(f"runs/{ATTEMPTS}/*/run.log")):
+                os.kill(pid, signal.SIGKILL)
+                kills.append(pid)
+            time.sleep(0.2)
+
+    ray.init(num_cpus=1, include_dashboard=False, logging_level="ERROR", log_to_driver=False)
+    try:
+        killer = threading.Thread(target=kill_every_attempt)
+        killer.start()
+        outcome = run_study(study, Options(out=out, ray="auto", progress=False, plots="none", run_timeout=0))
+        killer.join()
+    finally:
+        ray.shutdown()
+    row = outcome.table.iloc[0]
+    assert len(kills) == RAY_RETRIES + 1 and len(outcome.table) == 1
+    assert (row["status"], row["failure"]) == ("failed", "worker_lost") and "lost 3 times" in row["reason"]
