@@ -78,7 +78,8 @@ def run_job(job: Job) -> str:
     except (RunFailed, ScenarioError, OSError):
         pass  # summary.json and run.log say why
     except RunTimedOut:  # the limit came before or after the run's loop (its set-up, a push-free twin)
-        end_without_result(out, "timeout", "its wall-time limit was reached outside its control loop")
+        if not ended(out):  # a run that had just ended keeps its result
+            end_without_result(out, "timeout", "its wall-time limit was reached outside its control loop")
     return job.name
 
 

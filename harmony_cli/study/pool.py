@@ -93,9 +93,14 @@ class Workers:
         for worker in [w for w in self.workers if w.job is None]:
             if not self.queue:
                 break
-            worker.job, worker.tries = self.queue.popleft()
-            worker.started = time.monotonic()
-            worker.conn.send(worker.job)
+            job, tries = self.queue.popleft()
+            try:
+                worker.conn.send(job)
+            except OSError:  # the worker died while idle: a fresh one takes its place, the job waits for the next
+                self.queue.appendleft((job, tries))
+                self._replace(worker)
+                continue
+            worker.job, worker.tries, worker.started = job, tries, time.monotonic()
         while self.queue and len(self.workers) < self.n:
             self.workers.append(self._start())
 
