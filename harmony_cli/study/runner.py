@@ -116,9 +116,9 @@ class Plan:
     todo: list[PlannedRun]
 
 
-def plan_study(path: Path, options: Options) -> Plan:
-    """Draw the scenes and find what the study directory already has (ScenarioError: a bad study or base
-    scenario)."""
+def _drawn(path: Path, options: Options) -> tuple[StudySpec, Path, Path, list[PlannedRun]]:
+    """The study file's spec, base scenario, directory and runs, the scenes drawn (ScenarioError: a bad study or
+    base scenario)."""
     if options.rerun and not set(options.rerun) <= set(RERUN):
         raise ScenarioError(f"--rerun {','.join(options.rerun)}: choose from {', '.join(RERUN)}")
     spec = with_grid(path, load_study(path), options.grid)
@@ -126,13 +126,10 @@ def plan_study(path: Path, options: Options) -> Plan:
     scenario_path = base_scenario_path(path, spec)
     sampler = Sampler(spec, scenario_path, SceneCheck(scenario_path.parent, spec.check.clearance), (name, draws.seed))
     warn(sampler.notices)
-    out = study_dir(spec, name, options.out)
     with _bar(options.progress) as bar:
         task = bar.add_task(f"drawing scenes ({name}, seed {draws.seed})", total=draws.samples, rate="")
         runs = plan_runs(spec, sampler, draws.samples, lambda done, total: bar.update(task, completed=done))
-    rows = {run.name: run_row(run, out / "runs" / run.name) for run in runs}
-    todo = [run for run in runs if _wanted(rows[run.name], options.rerun)]
-    return Plan(spec, scenario_path, out, runs, rows, todo)
+    return spec, scenario_path, study_dir(spec, name, options.out), runs
 
 
 def _rows_todo(runs: list[PlannedRun], out: Path, rerun: tuple[str, ...]) -> tuple[dict[str, dict], list[PlannedRun]]:
@@ -141,27 +138,33 @@ def _rows_todo(runs: list[PlannedRun], out: Path, rerun: tuple[str, ...]) -> tup
     return rows, [run for run in runs if _wanted(rows[run.name], rerun)]
 
 
+def plan_study(path: Path, options: Options) -> Plan:
+    """Draw the scenes and find what the study directory already has (ScenarioError: a bad study or base
+    scenario)."""
+    spec, scenario_path, out, runs = _drawn(path, options)
+    return Plan(spec, scenario_path, out, runs, *_rows_todo(runs, out, options.rerun))
+
+
 def run_study(path: Path, options: Options) -> StudyOutcome:
     """Run a study (ScenarioError: a bad study or base scenario, or another driver on its directory, nothing
     run); RunInterrupted propagates after the runs in flight wrote their results and study.parquet is current."""
-    plan = plan_study(path, options)
-    spec, out, runs = plan.spec, plan.out, plan.runs
+    spec, scenario_path, out, runs = _drawn(path, options)
     out.mkdir(parents=True, exist_ok=True)
     with study_lock(out):
-        rows, todo = _rows_todo(runs, out, options.rerun)  # as the directory is now that no one else writes it
+        rows, todo = _rows_todo(runs, out, options.rerun)  # read once no other driver can write the directory
         shutil.rmtree(out / "runs" / ATTEMPTS, ignore_errors=True)  # a dead driver's runs in flight: no results
         (out / "study.yaml").write_text(
             path.read_text()
             if not options.grid
             else yaml.safe_dump(spec.model_dump(mode="json", exclude_defaults=True), sort_keys=False)
         )
-        base = scenario_yaml(load_scenario(plan.scenario_path, spec.set))  # the base scene, for the report's map
+        base = scenario_yaml(load_scenario(scenario_path, spec.set))  # the base scene, for the report's map
         (out / "base_scenario.yaml").write_text(base)
         for run in todo:
             shutil.rmtree(out / "runs" / run.name, ignore_errors=True)  # a run again starts from nothing
             rows[run.name] = run_row(run, out / "runs" / run.name)
         write_table(list(rows.values()), out / TABLE)
-        jobs = [_job(run, spec, plan.scenario_path, out, options) for run in todo]
+        jobs = [_job(run, spec, scenario_path, out, options) for run in todo]
         start = time.monotonic()
         _execute(jobs, rows, {run.name: run for run in runs}, out, options, spec.name)
         minutes = (time.monotonic() - start) / 60.0
