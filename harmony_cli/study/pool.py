@@ -8,8 +8,8 @@ The driver supervises them:
   committed as `worker_lost`;
 - a worker dies with its driver (Linux: the parent-death signal), so a driver killed outright leaves no run going
   on, and no run writes into the study after it;
-- a signal to the driver ends every run in flight cleanly (SIGTERM to the workers, STOP_S for them to write their
-  results, then SIGKILL), starts no more, and propagates."""
+- a signal to the driver ends every run in flight cleanly (experiment/workers.py's stop_processes: SIGTERM, time
+  to write their results, then SIGKILL), starts no more, and propagates."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 
 from harmony_cli.experiment.interrupts import RunInterrupted, signals_end_the_run
-from harmony_cli.experiment.workers import STOP_S
+from harmony_cli.experiment.workers import stop_processes
 from harmony_cli.study.execute import Done, Job, Lost, run_job
 
 GRACE_S = 30.0  # [s] past its wall-time limit, a run that has not ended itself is killed
@@ -145,15 +145,9 @@ class Workers:
         self.workers[self.workers.index(worker)] = self._start()
 
     def _end_all(self) -> None:
-        """SIGTERM to every worker (its run writes its results and stops), STOP_S for them, then SIGKILL."""
+        """Every worker's run ended cleanly (stop_processes), no job started after."""
         self.queue.clear()
-        for worker in self.workers:
-            worker.process.terminate()
-        deadline = time.monotonic() + STOP_S
-        for worker in self.workers:
-            worker.process.join(max(0.0, deadline - time.monotonic()))
-            if worker.process.is_alive():
-                worker.process.kill()
+        stop_processes([worker.process for worker in self.workers])
 
     def _close(self) -> None:
         for worker in self.workers:
