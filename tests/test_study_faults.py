@@ -277,3 +277,10 @@ def test_a_ray_worker_killed_on_every_attempt_leaves_a_worker_lost_row_not_a_mis
     row = outcome.table.iloc[0]
     assert len(kills) == RAY_RETRIES + 1 and len(outcome.table) == 1
     assert (row["status"], row["failure"]) == ("failed", "worker_lost") and "lost 3 times" in row["reason"]
+
+
+def test_a_negative_run_timeout_is_refused_in_one_line_naming_the_option_and_its_range():
+    result = subprocess.run([str(HARMONY), "study", str(STUDY), "--run-timeout", "-1"], capture_output=True, text=True)
+    lines = (result.stdout + result.stderr).strip().splitlines()
+    assert result.returncode == 2 and len(lines) == 1, result.stderr
+    assert "--run-timeout" in lines[0] and "greater than or equal to 0" in lines[0]

@@ -31,6 +31,7 @@ def study(
     ),
     run_timeout: float | None = typer.Option(
         None,
+        min=0,
         help="Each run's wall-time limit [s]; a run past it ends as failure `timeout` with its logs (0: none; "
         "default: 120 s + 10 s per simulated second)",
     ),
