@@ -9,7 +9,8 @@ import numpy as np
 
 from harmony_cli.maths.shapes import obstacle_shape
 from harmony_cli.planning.planner import Planner
-from harmony_cli.planning.stance import TOLERANCE, turned
+from harmony_cli.planning.stance import TOLERANCE, StanceClass, turned
+from harmony_cli.planning.stance_check import written_stance_class
 from harmony_cli.scenario import load_scenario, robot_of
 from harmony_cli.tasks.scene_check import _footprint, planar_gap
 
@@ -89,3 +90,16 @@ def test_a_failed_run_s_reason_in_a_study_carries_its_task_warning_or_an_older_r
         "planner failed; stance: x"
     )
     assert run_reason({"task": {"failure": None}, "stance_warning": "stance: x"}) is None
+
+
+def test_a_scene_s_written_stance_class_is_its_worst_stance_s_clear_turned_clear_or_not():
+    for cylinder, expected in (
+        (None, StanceClass.CLEAR),  # the paper's scene
+        ("[4.4, 0.8, 1.0]", StanceClass.TURN_CLEARS),  # beside the place stance: a turn of the place clears it
+        ("[5.3, 0.0, 1.0]", StanceClass.NO_TURN_CLEARS),  # where the base stands to place: no turn clears it
+    ):
+        scenario, robot, stances = _stances(*([f"world.obstacles.cylinder.position={cylinder}"] if cylinder else []))
+        assert written_stance_class(scenario, robot) is expected
+        blocked = [s for s in stances.values() if s.warning() is not None]  # the planner's own stances agree
+        assert bool(blocked) == (expected is not StanceClass.CLEAR)
+        assert any(s.turn_deg is None for s in blocked) == (expected is StanceClass.NO_TURN_CLEARS)

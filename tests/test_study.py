@@ -20,11 +20,15 @@ from typer.testing import CliRunner
 from harmony_cli.cli import app
 from harmony_cli.experiment.run import run_scenario
 from harmony_cli.maths.shapes import obstacle_shape, table_shape
+from harmony_cli.planning.stance import StanceClass
+from harmony_cli.planning.stance_check import written_stance_class
 from harmony_cli.scenario import ScenarioError, load_scenario
 from harmony_cli.study.plan import plan_runs
 from harmony_cli.study.report import refusal_kind, wilson, write_report
 from harmony_cli.study.runner import Options, plan_study, run_study
 from harmony_cli.study.sampling import Sampler
+from harmony_cli.study.scene_kind import COLUMN as SCENE_KIND
+from harmony_cli.study.scene_kind import describer
 from harmony_cli.study.spec import base_scenario_path, draw_set, load_study
 from harmony_cli.study.table import TABLE, flatten, outcome, run_reason
 from harmony_cli.tasks.scene_check import SceneCheck, planar_gap
@@ -232,6 +236,43 @@ def _report_of(tmp_path: Path, outcomes: list[str], rejected: list[list[str]]) -
     table.to_parquet(tmp_path / TABLE)
     write_report(tmp_path)
     return (tmp_path / "report.md").read_text()
+
+
+def test_the_report_breaks_the_outcomes_down_by_the_written_stance_with_each_kind_s_own_interval(tmp_path):
+    outcomes = ["success", "dropped", "success, a phase late", "no stance", "impossible", "success"]
+    kinds = [StanceClass.CLEAR, StanceClass.CLEAR, StanceClass.TURN_CLEARS] + [StanceClass.NO_TURN_CLEARS] * 3
+    table = pd.DataFrame(
+        {
+            "point": ["base"] * 6,
+            "sample": range(6),
+            "success": [o.startswith("success") for o in outcomes],
+            "outcome": outcomes,
+            "reason": [REASONS.get(o, "") for o in outcomes],
+            "resamples": 0,
+            "run_dir": [str(tmp_path / f"runs/s{i}") for i in range(6)],
+            SCENE_KIND: [k.value for k in kinds],
+        }
+    )
+    table.to_parquet(tmp_path / TABLE)
+    write_report(tmp_path)
+    report = (tmp_path / "report.md").read_text()
+    # per kind: the draws run (a draw refused as impossible is not one), successes, rate, Wilson, the failures
+    assert "| clear | base | 2 | 1 | 50 % | 9 % - 91 % | 1 dropped |" in report, report
+    assert "| blocked, a turn clears it | base | 1 | 1 | 100 % | 21 % - 100 % | - |" in report
+    assert "| blocked, no turn clears it | base | 2 | 1 | 50 % | 9 % - 91 % | 1 no stance |" in report
+
+
+def test_each_drawn_scene_of_a_study_with_a_box_and_a_task_has_its_written_stance_class(tmp_path):
+    spec, sampler = _sampler()
+    plain = plan_runs(spec, sampler, 3)
+    assert all(run.sample.scene == {} for run in plain)  # the sampler of the tests above describes nothing
+    described = Sampler(spec, sampler.path, sampler.check, (sampler.draws, sampler.seed), describer(sampler.check))
+    runs = plan_runs(spec, described, 3)
+    assert [run.overrides for run in runs] == [run.overrides for run in plain]  # the same scenes
+    for run in runs:
+        scenario = sampler.scenario(run.overrides)
+        expected = written_stance_class(scenario, sampler.check.robot(scenario))
+        assert run.sample.scene == {"written_stance": expected.value}
 
 
 def test_the_report_counts_the_draws_refused_as_impossible_by_kind(tmp_path):

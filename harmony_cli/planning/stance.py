@@ -14,6 +14,7 @@ found, the run ends before the robot moves as the controller's failure (stance_c
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import Enum
 
 import numpy as np
 
@@ -41,9 +42,14 @@ class Stance:
     turn_deg: float | None
     pivot_position: np.ndarray
 
+    @property
+    def blocked(self) -> bool:
+        """Whether the written stance is more than TOLERANCE inside a margin."""
+        return self.margin < -TOLERANCE
+
     def warning(self) -> str | None:
-        """One line when the written stance is more than TOLERANCE inside a margin, else None."""
-        if self.margin >= -TOLERANCE:
+        """One line when the written stance is blocked, else None."""
+        if not self.blocked:
             return None
         fix = (
             f"turning those hand targets by {self.turn_deg:+g} deg about {self.pivot} would clear it"
@@ -53,6 +59,24 @@ class Stance:
         where = self.phases[0] if len(self.phases) == 1 else f"{self.phases[0]} to {self.phases[-1]}"
         inside = f"is {-self.margin:.2f} m inside {self.body}'s margin"
         return f"stance: in phases {where} the base, behind the hands as written, {inside}; {fix}"
+
+
+class StanceClass(Enum):
+    """How hard a scene's written stances are to work from, easiest first: the base behind the hands as written
+    clear of every margin (within TOLERANCE), inside one but clear after a turn of the group's targets about their
+    pivot (up to MOST_DEG), or not even then. A study's report breaks its outcomes down by it."""
+
+    CLEAR = "clear"
+    TURN_CLEARS = "blocked, a turn clears it"
+    NO_TURN_CLEARS = "blocked, no turn clears it"
+
+
+def stance_class(found: list[Stance]) -> StanceClass:
+    """The worst of the stances' classes (CLEAR without any)."""
+    blocked = [stance for stance in found if stance.blocked]
+    if any(stance.turn_deg is None for stance in blocked):
+        return StanceClass.NO_TURN_CLEARS
+    return StanceClass.TURN_CLEARS if blocked else StanceClass.CLEAR
 
 
 def stances(

@@ -13,7 +13,7 @@ from harmony_cli.maths.shapes import table_legs
 from harmony_cli.mpc.clearance import FLOOR
 from harmony_cli.planning.hand_plan import Obstacle, planned_obstacles
 from harmony_cli.planning.plan_base import PlannedBase
-from harmony_cli.planning.stance import Stance, stances
+from harmony_cli.planning.stance import Stance, StanceClass, stance_class, stances
 from harmony_cli.planning.stance_plan import pivot_targets
 from harmony_cli.planning.stance_pose import STARTS, stance_poses
 from harmony_cli.robot.model import Robot
@@ -28,14 +28,24 @@ SEARCH = STARTS + tuple(
 )
 
 
+def _standing(scenario: Scenario) -> Scenario:
+    """The scenario without its moving obstacles (where one starts does not block a stance for good)."""
+    standing = [o for o in scenario.world.obstacles if o.motion is None]
+    return scenario.model_copy(update={"world": scenario.world.model_copy(update={"obstacles": standing})})
+
+
+def written_stance_class(scenario: Scenario, robot: Robot) -> StanceClass:
+    """How blocked the scene's written stances are, among the bodies that stand still (stance.StanceClass)."""
+    return stance_class(written_stances(_standing(scenario), robot, *home_hands(robot)))
+
+
 def unposed(scenario: Scenario, robot: Robot) -> str | None:
     """Why the hands cannot work where a blocked stance's phases put them (no base pose found from SEARCH's
     starts), or None."""
-    standing = [o for o in scenario.world.obstacles if o.motion is None]
-    still = scenario.model_copy(update={"world": scenario.world.model_copy(update={"obstacles": standing})})
+    still = _standing(scenario)
     hands, offset = home_hands(robot)
     for stance in written_stances(still, robot, hands, offset):
-        if stance.warning() is None:
+        if not stance.blocked:
             continue
         at_pivot = pivot_targets(still, robot, stance, offset)
         if at_pivot is None or stance_poses(still, robot, *at_pivot[:2], first=True, starts=SEARCH):

@@ -136,7 +136,7 @@ def stance_plan(scenario: Scenario, robot: Robot, found: list[Stance], heading_o
     vias, postures, unplaced = {}, [], []
     reliefs: dict[int, np.ndarray] = {}
     for stance in found:
-        if stance.warning() is None:
+        if not stance.blocked:
             continue
         at_pivot = pivot_targets(scenario, robot, stance, heading_offset)
         if at_pivot is None:

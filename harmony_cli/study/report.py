@@ -17,10 +17,12 @@ import pandas as pd
 import yaml
 from scipy.stats import binomtest
 
+from harmony_cli.planning.stance import StanceClass
 from harmony_cli.report.figure import plt, save
 from harmony_cli.report.text import markdown_cell
 from harmony_cli.study.disagreement import disagreement_lines
 from harmony_cli.study.draw_map import draw_map
+from harmony_cli.study.scene_kind import COLUMN as SCENE_KIND
 from harmony_cli.study.table import IMPOSSIBLE, SUCCESS, SUCCESS_LATE, TABLE
 
 METRICS = (  # (column or prefix, what it is, unit scale, unit): distributions in the report
@@ -125,6 +127,27 @@ def headline(rate, runs: pd.DataFrame) -> str:
     return line + "."
 
 
+def scene_kind_lines(table: pd.DataFrame) -> list[str]:
+    """Per kind of scene (study/scene_kind.py: how blocked its written stances are) and grid point, the draws run,
+    successes, rate with its Wilson interval and the failures by category; nothing when no draw has a kind."""
+    if SCENE_KIND not in table or table[SCENE_KIND].isna().all():
+        return []
+    lines = ["", "## Outcomes by the written stance", ""]
+    lines += ["| written stance | grid point | draws run | successes | rate | Wilson 95 % | failures by category |"]
+    lines += ["|---|---|---:|---:|---:|---|---|"]
+    for kind in StanceClass:
+        runs = table[table[SCENE_KIND] == kind.value]
+        for rate in success_rates(runs).itertuples():
+            ran = runs[(runs["point"] == rate.point) & runs["success"].notna() & (runs["outcome"] != IMPOSSIBLE)]
+            failures = ran.loc[~ran["success"].astype(bool), "outcome"].value_counts()
+            why = ", ".join(f"{n} {outcome}" for outcome, n in failures.items()) or "-"
+            lines.append(
+                f"| {kind.value} | {rate.point} | {rate.runs} | {rate.successes} | {_pct(rate.rate)} | "
+                f"{_pct(rate.low)} - {_pct(rate.high)} | {why} |"
+            )
+    return lines
+
+
 def throughput_lines(study: Path) -> list[str]:
     """The study's last invocation that ran something, from its log: runs, minutes, runs per minute, where."""
     log = study / "study_log.jsonl"
@@ -172,7 +195,7 @@ def write_report(study: Path) -> list[Path]:
     ]
     lines += throughput_lines(study)
     counts = table.groupby(["point", "outcome"], sort=False).size().unstack(fill_value=0)
-    lines += ["", "## Outcomes by category", "", _markdown(counts.reset_index())]
+    lines += ["", "## Outcomes by category", "", _markdown(counts.reset_index())] + scene_kind_lines(table)
     lines += disagreement_lines(table)
     lines += ["", "## Run metrics (median / p95 / max over runs with a value)", ""]
     lines += ["| metric | grid point | runs | median | p95 | max |", "|---|---|---:|---:|---:|---:|"]

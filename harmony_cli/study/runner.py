@@ -26,6 +26,7 @@ from harmony_cli.study.plan import PlannedRun, code_version, plan_runs
 from harmony_cli.study.pool import Workers
 from harmony_cli.study.ray_engine import run_ray
 from harmony_cli.study.sampling import Sampler
+from harmony_cli.study.scene_kind import describer
 from harmony_cli.study.spec import StudySpec, base_scenario_path, draw_set, load_study, with_grid
 from harmony_cli.study.table import INCOMPLETE, NOT_RUN, TABLE, run_row, write_table
 from harmony_cli.tasks.scene_check import SceneCheck
@@ -124,7 +125,8 @@ def _drawn(path: Path, options: Options) -> tuple[StudySpec, Path, Path, list[Pl
     spec = with_grid(path, load_study(path), options.grid)
     name, draws = draw_set(spec, options.draws, options.seed, options.samples)
     scenario_path = base_scenario_path(path, spec)
-    sampler = Sampler(spec, scenario_path, SceneCheck(scenario_path.parent, spec.check.clearance), (name, draws.seed))
+    check = SceneCheck(scenario_path.parent, spec.check.clearance)
+    sampler = Sampler(spec, scenario_path, check, (name, draws.seed), describer(check))
     warn(sampler.notices)
     with _bar(options.progress) as bar:
         task = bar.add_task(f"drawing scenes ({name}, seed {draws.seed})", total=draws.samples, rate="")
