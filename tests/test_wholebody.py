@@ -169,6 +169,14 @@ def test_ipopt_and_gauss_newton_sqp_reach_the_same_optimum(eva):
     np.testing.assert_allclose(ipopt.x, reference.x, atol=2e-4)
 
 
+def test_levenberg_marquardt_damping_changes_the_steps_but_not_the_optimum(eva):
+    converged = ("mpc.knots=6", "solver.name=gauss_newton", "solver.tol=1.0e-9", "solver.max_iter=1000")
+    _, _, plain = _solve_once(eva, *converged, "solver.damping=1.0e-6")
+    _, _, damped = _solve_once(eva, *converged, "solver.damping=1.0e-2")
+    assert plain.success and damped.success and damped.iterations > plain.iterations
+    np.testing.assert_allclose(damped.x, plain.x, atol=1e-6)
+
+
 def test_python_callback_oracles_reach_the_native_oracles_optimum(eva, monkeypatch):
     """Without a C compiler the same derivatives go through Python callbacks: same optimum, only slower."""
     _, _, native = _solve_once(eva, "mpc.knots=6", "solver.name=ipopt")

@@ -27,7 +27,9 @@ class GaussNewtonSolver:
     """Gauss-Newton SQP with structured Hessians and a QP per iteration over the free variables (see Reduction);
     nonlinear constraint rows are linearised at each iterate. `max_iter=1` is real-time iteration."""
 
-    def __init__(self, problem: Problem, qp: str, max_iter: int, tol: float, name: str = "gauss_newton"):
+    def __init__(
+        self, problem: Problem, qp: str, max_iter: int, tol: float, name: str = "gauss_newton", damping: float = 1e-6
+    ):
         self.problem, self.max_iter, self.tol, self.name = problem, max_iter, tol, name
         # the clearance rows' C (the largest) starts compiling first; `path` and the first solve wait for gcc
         self.constraints = shared_constraints(problem) if problem.constraint is not None else None
@@ -39,7 +41,7 @@ class GaussNewtonSolver:
         elif qp == "osqp":
             self.options |= {"osqp": {"verbose": False, "eps_abs": 1e-6, "eps_rel": 1e-6, "max_iter": 4000}}
         self._qps: dict[bytes, tuple] = {}
-        self.regularisation = 1e-6
+        self.regularisation = damping
         # this solver's own bound on the far rows (the constraints' maps are shared by every solver of the problem)
         self.far = FarBound(problem.far) if self.constraints is not None and problem.far is not None else None
 

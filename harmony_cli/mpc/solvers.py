@@ -25,9 +25,8 @@ def make_solver(problem: Problem, spec: SolverSpec) -> Solver:
     gets CasADi's AD on the whole problem instead (slower; its `path` says so and why)."""
     if spec.name in HARMONY_SOLVERS:
         rti = spec.name == "rti"
-        return GaussNewtonSolver(
-            problem, qp_solver_for(spec.qp, problem.n_vars, rti), 1 if rti else spec.max_iter, spec.tol, spec.name
-        )
+        qp = qp_solver_for(spec.qp, problem.n_vars, rti)
+        return GaussNewtonSolver(problem, qp, 1 if rti else spec.max_iter, spec.tol, spec.name, spec.damping)
     if spec.name not in available_nlp_plugins():
         raise SolverUnavailable(unavailable_message(spec.name))
     try:

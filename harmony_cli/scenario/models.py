@@ -158,6 +158,11 @@ class SolverSpec(Strict):
     )
     max_iter: int = Field(30, ge=1, description="Gauss-Newton SQP iterations per solve (rti: always 1)")
     tol: PositiveFloat = Field(1e-6, description="Gauss-Newton SQP step tolerance")
+    damping: PositiveFloat = Field(
+        1e-6,
+        description="gauss_newton and rti: Levenberg-Marquardt damping added to the Gauss-Newton Hessian's "
+        "diagonal (a cost on each step's size); larger damps steps the linearised constraints make overshoot",
+    )
     options: dict[str, Any] = Field(default_factory=dict, description="passed to the CasADi plugin")
 
 
