@@ -265,14 +265,14 @@ def test_the_report_breaks_the_outcomes_down_by_the_written_stance_with_each_kin
 def test_each_drawn_scene_of_a_study_with_a_box_and_a_task_has_its_written_stance_class(tmp_path):
     spec, sampler = _sampler()
     plain = plan_runs(spec, sampler, 3)
-    assert all(run.sample.scene == {} for run in plain)  # the sampler of the tests above describes nothing
+    assert all(run.scene == {} for run in plain)  # the sampler of the tests above describes nothing
     described = Sampler(spec, sampler.path, sampler.check, (sampler.draws, sampler.seed), describer(sampler.check))
     runs = plan_runs(spec, described, 3)
     assert [run.overrides for run in runs] == [run.overrides for run in plain]  # the same scenes
     for run in runs:
         scenario = sampler.scenario(run.overrides)
         expected = written_stance_class(scenario, sampler.check.robot(scenario))
-        assert run.sample.scene == {"written_stance": expected.value}
+        assert run.scene == {"written_stance": expected.value}
 
 
 def test_the_report_counts_the_draws_refused_as_impossible_by_kind(tmp_path):

@@ -4,7 +4,7 @@ and the code version, so a study started again finds the runs it has (and runs a
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -42,6 +42,7 @@ class PlannedRun:
     overrides: list[str]  # everything `harmony run` gets after the base scenario, in order
     key: str  # hash of the resolved scenario and the code version
     duration: float = 0.0  # [s] its simulated duration as written (sim.duration)
+    scene: dict[str, Any] = field(default_factory=dict)  # what the sampler's `describe` says of its scenario
 
     @property
     def label(self) -> str:
@@ -82,7 +83,8 @@ def plan_runs(spec: StudySpec, sampler: Sampler, samples: int, progress=None) ->
             overrides = sample.overrides + point_overrides(point)
             scenario = sampler.scenario(overrides)
             key = run_key(scenario, sampler.path)
-            runs.append(PlannedRun(sample, point, overrides, key, scenario.sim.duration))
+            scene = {} if sampler.describe is None else sampler.describe(scenario)
+            runs.append(PlannedRun(sample, point, overrides, key, scenario.sim.duration, scene))
         if progress is not None:
             progress(i + 1, total)
     return runs

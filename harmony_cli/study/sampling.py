@@ -29,7 +29,6 @@ class Sample:
     values: dict[str, Any]  # varied field -> its value in this scene
     overrides: list[str]  # the base scenario's --set (the study's own first), this sample's, in that order
     rejected: list[str] = field(default_factory=list)  # why each earlier draw of this sample was refused
-    scene: dict[str, Any] = field(default_factory=dict)  # what the study's `describe` says of the scene
 
 
 def value_at(data: Any, key: str) -> Any:
@@ -78,8 +77,7 @@ def grid_points(spec: StudySpec) -> list[dict[str, Any]]:
 class Sampler:
     """Draws the samples of one set of draws (`seed`) of a study over its base scenario; `check(scenario)` returns
     why a scene is impossible (None: possible). A sample is a scene for every grid point, so each point's scenario
-    passes the check. `describe(scenario)` gives what a report breaks outcomes down by ({} without it), from the
-    first grid point's scenario."""
+    passes the check. `describe(scenario)` gives what a report breaks a run's outcome down by ({} without it)."""
 
     def __init__(
         self, spec: StudySpec, scenario_path: Path, check=None, draws: tuple[str, int] = ("dev", 0), describe=None
@@ -107,29 +105,26 @@ class Sampler:
         for _ in range(self.spec.check.max_tries):
             values = {key: draw(d, rng, value_at(self.base_values, key)) for key, d in self.spec.vary.items()}
             overrides = list(self.spec.set) + [override(k, v) for k, v in values.items()]
-            why, scenario = self._refusal(overrides)
+            why = self._refusal(overrides)
             if why is None:
-                scene = {} if self.describe is None or scenario is None else self.describe(scenario)
-                return Sample(self.draws, self.seed, index, values, overrides, rejected, scene)
+                return Sample(self.draws, self.seed, index, values, overrides, rejected)
             rejected.append(why)
         raise ScenarioError(
             f"sample {index}: no possible scene in {self.spec.check.max_tries} draws (check.max_tries); "
             f"the last was refused: {rejected[-1]}"
         )
 
-    def _refusal(self, overrides: list[str]) -> tuple[str | None, Scenario | None]:
-        """Why a draw is not a scene (at some grid point), or None; and the first grid point's scenario."""
-        first = None
+    def _refusal(self, overrides: list[str]) -> str | None:
+        """Why a draw is not a scene (at some grid point), or None."""
         for point in self.points:
             try:
                 scenario = self.scenario(overrides + point_overrides(point))
             except ScenarioError as exc:
-                return f"invalid: {str(exc).removeprefix(f'{self.path}: ')}", None
-            first = scenario if first is None else first
+                return f"invalid: {str(exc).removeprefix(f'{self.path}: ')}"
             why = self.check(scenario) if self.check is not None and self.spec.check.enabled else None
             if why is not None:
-                return why, None
-        return None, first
+                return why
+        return None
 
 
 def point_overrides(point: dict[str, Any]) -> list[str]:
