@@ -219,8 +219,9 @@ def test_a_run_stopped_after_its_box_fell_counts_as_dropped_and_says_both():
 REASONS = {"impossible": "phase carry: no passage for the base from its start", "dropped": "the box fell"}
 
 
-def _report_of(tmp_path: Path, outcomes: list[str], rejected: list[list[str]]) -> str:
-    """report.md of a table of one grid point with these outcomes and, per sample, its refused draws."""
+def _report_of(tmp_path: Path, outcomes: list[str], rejected: list[list[str]], more: dict | None = None) -> str:
+    """report.md of a table of one grid point with these outcomes, per sample its refused draws, and `more`
+    columns."""
     table = pd.DataFrame(
         {
             "point": ["base"] * len(outcomes),
@@ -232,6 +233,7 @@ def _report_of(tmp_path: Path, outcomes: list[str], rejected: list[list[str]]) -
             "rejected": [json.dumps(r) for r in rejected],
             "run_dir": [str(tmp_path / f"runs/s{i}") for i in range(len(outcomes))],
         }
+        | (more or {})
     )
     table.to_parquet(tmp_path / TABLE)
     write_report(tmp_path)
@@ -241,21 +243,7 @@ def _report_of(tmp_path: Path, outcomes: list[str], rejected: list[list[str]]) -
 def test_the_report_breaks_the_outcomes_down_by_the_written_stance_with_each_kind_s_own_interval(tmp_path):
     outcomes = ["success", "dropped", "success, a phase late", "no stance", "impossible", "success"]
     kinds = [StanceClass.CLEAR, StanceClass.CLEAR, StanceClass.TURN_CLEARS] + [StanceClass.NO_TURN_CLEARS] * 3
-    table = pd.DataFrame(
-        {
-            "point": ["base"] * 6,
-            "sample": range(6),
-            "success": [o.startswith("success") for o in outcomes],
-            "outcome": outcomes,
-            "reason": [REASONS.get(o, "") for o in outcomes],
-            "resamples": 0,
-            "run_dir": [str(tmp_path / f"runs/s{i}") for i in range(6)],
-            SCENE_KIND: [k.value for k in kinds],
-        }
-    )
-    table.to_parquet(tmp_path / TABLE)
-    write_report(tmp_path)
-    report = (tmp_path / "report.md").read_text()
+    report = _report_of(tmp_path, outcomes, [[]] * len(outcomes), {SCENE_KIND: [k.value for k in kinds]})
     # per kind: the draws run (a draw refused as impossible is not one), successes, rate, Wilson, the failures
     assert "| clear | base | 2 | 1 | 50 % | 9 % - 91 % | 1 dropped |" in report, report
     assert "| blocked, a turn clears it | base | 1 | 1 | 100 % | 21 % - 100 % | - |" in report

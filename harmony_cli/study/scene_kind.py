@@ -13,7 +13,7 @@ from harmony_cli.planning.stance_check import written_stance_class
 from harmony_cli.scenario import Scenario
 from harmony_cli.tasks.scene_check import SceneCheck
 
-COLUMN = "scene.written_stance"  # the study table's column (study/table.py: a sample's `scene`, flattened)
+COLUMN = "scene.written_stance"  # the study table's column (study/table.py: a run's `scene`, flattened)
 
 
 def describer(check: SceneCheck) -> Callable[[Scenario], dict[str, Any]]:
