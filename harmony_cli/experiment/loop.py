@@ -9,10 +9,12 @@ from contextlib import contextmanager
 
 import numpy as np
 
+from harmony_cli.experiment.actuation import Actuator
 from harmony_cli.experiment.faults import RunFault
 from harmony_cli.experiment.health import Health
 from harmony_cli.experiment.memory import reserve_heap
 from harmony_cli.experiment.replay_log import ReplayLog
+from harmony_cli.experiment.sensing import Sensors
 from harmony_cli.experiment.step_log import step_record
 from harmony_cli.mpc.knot_params import hand_rows
 from harmony_cli.mpc.wholebody import Command, WholeBodyMPC
@@ -39,23 +41,24 @@ def run_loop(
     predict: Predictor | None = None,
     health: Health | None = None,
     replay: ReplayLog | None = None,
+    sensors: Sensors | None = None,
+    actuator: Actuator | None = None,
 ) -> None:
     """Run the whole scenario; every step's record goes to `record` as soon as it exists (nothing is lost).
 
     `loop_ms`: wall time from the observation to the command (references, obstacle prediction, whole-body MPC);
-    the record (ground truth, `watch`, cost terms) is built outside it. A record's breakdown: `sense_ms`,
-    `planner_ms` (if any), `wbmpc_ms`, `qp_rows`, `qp_solves`, and the step before's `previous_log_ms` (truth,
-    record, health) and `previous_physics_ms` (command and physics), which come after its record.
-    `predict` (moving obstacles) gives the whole-body MPC the obstacles' centres at t + its knot times. `health`
-    checks every step's measurement (after its record: the steps log shows what diverged) before its command.
-    `replay` gets the knots and the plan (replay.npz); its time is the next record's `previous_replay_ms`."""
+    the record (ground truth, `watch`, cost terms, _breakdown) is built outside it. `predict`: the moving obstacles'
+    centres at t + the knot times. `health` checks each measurement (after its record) before its command. `replay`
+    gets the knots and the plan. `sensors` (noise, delay, estimated obstacles) and `actuator` (latency) stand
+    between the controllers and `sim`; without them the controllers see its state and their commands act at once."""
     n_steps = lambda: int(round((duration + references.delay) / control_dt))  # a task's waits lengthen the run
     step, previous = 0, {"physics_ms": 0.0, "log_ms": 0.0, "replay_ms": 0.0}  # the step before's, after its record
+    observe, actuator = (sensors.observe if sensors else lambda t: sim.observe()), actuator or Actuator(sim, 0, 1)
     with collector_frozen():
         while step < n_steps():
             t = step * control_dt
             sensed = time.perf_counter()
-            obs = sim.observe()  # the MPC always starts from the measured state
+            obs = observe(t)  # the MPC always starts from the measured state
             start = time.perf_counter()
             targets = references.plan(t, obs, mpc.knot_times)
             if predict is not None:
@@ -68,9 +71,9 @@ def run_loop(
             )
             end = time.perf_counter()
             truth = sim.truth()
-            watched = watch(t, obs, truth) if watch else {}
-            timing = {"sense_ms": 1e3 * (start - sensed), "wbmpc_ms": 1e3 * (end - solve), "qp_rows": result.qp_rows}
-            timing |= {"qp_solves": result.qp_solves} | {f"previous_{k}": v for k, v in previous.items()}
+            watched = (watch(t, obs, truth) if watch else {}) | (sensors.log(t) if sensors else {})
+            delay = actuator.delay(end - sensed)  # physics steps before the command acts
+            timing = _breakdown((sensed, start, solve, end), result, previous) | actuator.log(delay)
             record(
                 step_record(step, t, 1e3 * (end - start), mpc, obs, targets, command, result, truth, watched | timing)
             )
@@ -80,12 +83,21 @@ def run_loop(
             _check_finite(command, t, result.status)
             _freeze_survivors(step)
             physics = time.perf_counter()
-            sim.apply(command.q, command.qd)
-            sim.step(substeps)
+            actuator.send(command.q, command.qd, substeps, delay)
             physics_ms, log_ms = 1e3 * (time.perf_counter() - physics), 1e3 * (physics - end) - replay_ms
             previous = {"physics_ms": physics_ms, "log_ms": log_ms, "replay_ms": replay_ms}
             step += 1
             on_step(step, n_steps())
+
+
+def _breakdown(times: tuple[float, ...], result, previous: dict[str, float]) -> dict:
+    """A record's breakdown of its step, from the clock `times` (sensing, planning, solving and the command's):
+    `sense_ms`, `planner_ms` (if any, from the planner's log), `wbmpc_ms`, `qp_rows`, `qp_solves`, and the step
+    before's `previous_log_ms` (truth, record, health), `previous_physics_ms` (command and physics) and
+    `previous_replay_ms` (replay.npz), which come after its record."""
+    sensed, start, solve, end = times
+    timing = {"sense_ms": 1e3 * (start - sensed), "wbmpc_ms": 1e3 * (end - solve), "qp_rows": result.qp_rows}
+    return timing | {"qp_solves": result.qp_solves} | {f"previous_{k}": v for k, v in previous.items()}
 
 
 def _log_replay(

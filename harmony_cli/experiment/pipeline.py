@@ -16,6 +16,7 @@ import numpy as np
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
 from harmony_cli.console import warn
+from harmony_cli.experiment.actuation import Actuator
 from harmony_cli.experiment.faults import HeldPlans, RunFault, Writes, failed, fault_of
 from harmony_cli.experiment.health import Health, check_start
 from harmony_cli.experiment.interrupts import (
@@ -30,6 +31,7 @@ from harmony_cli.experiment.loop import Watch, run_loop
 from harmony_cli.experiment.replay_log import ReplayLog
 from harmony_cli.experiment.results import RunRecord, finish_run
 from harmony_cli.experiment.run_dir import machine_meta
+from harmony_cli.experiment.sensing import Sensors
 from harmony_cli.experiment.stream import STREAM, StepStream
 from harmony_cli.experiment.task_watch import TaskWatch
 from harmony_cli.mpc.wholebody import WholeBodyMPC
@@ -39,7 +41,8 @@ from harmony_cli.robot.model import Robot
 from harmony_cli.scenario import Scenario, robot_of, robot_warnings
 from harmony_cli.sim.engine import Simulator, open_simulator
 from harmony_cli.sim.video import VideoRecorder, frame_every
-from harmony_cli.tasks.motion import Predictor, obstacle_predictor
+from harmony_cli.tasks.motion import Predictor
+from harmony_cli.tasks.obstacle_estimate import ObstacleTracks
 from harmony_cli.tasks.reference import HandReference, TrajectoryReferences
 from harmony_cli.tasks.scene_check import SceneCheck
 from harmony_cli.tasks.targets import References
@@ -69,6 +72,8 @@ class Built:
     references: References
     watch: Watch | None
     predict: Predictor | None
+    sensors: Sensors
+    actuator: Actuator
 
 
 def build(scenario: Scenario, scenario_dir: Path) -> Built:
@@ -89,13 +94,18 @@ def build(scenario: Scenario, scenario_dir: Path) -> Built:
     except BaseException:
         sim.close()
         raise
+    obstacles, noise = scenario.world.obstacles, scenario.sensing.noise.obstacle_position.std
+    tracks = ObstacleTracks(obstacles, noise, scenario.sim.control_dt)
+    sensors = Sensors(sim, scenario.sensing, robot, scenario.sim.control_dt, scenario.seed, tracks)
+    actuator = Actuator(sim, scenario.control.latency, scenario.sim.physics_dt)
+    predict = tracks.predictor() if any(o.motion is not None for o in obstacles) else None
     if scenario.task is not None:
-        references = Planner(robot, scenario)
-        return Built(robot, mpc, sim, references, TaskWatch(references), obstacle_predictor(scenario.world.obstacles))
+        references = Planner(robot, scenario, [tracks.motion(i) for i in range(len(obstacles))] if tracks else None)
+        return Built(robot, mpc, sim, references, TaskWatch(references), predict, sensors, actuator)
     if scenario.reference is None:  # validation leaves exactly one of task / reference
         raise ValueError(f"{scenario.name}: neither a task nor a reference")
     reference = HandReference(scenario.reference, robot.hand_poses_numeric(robot.home))
-    return Built(robot, mpc, sim, TrajectoryReferences(reference), None, obstacle_predictor(scenario.world.obstacles))
+    return Built(robot, mpc, sim, TrajectoryReferences(reference), None, predict, sensors, actuator)
 
 
 def describe(scenario: Scenario, built: Built) -> dict:
@@ -171,14 +181,7 @@ def simulate(
             recorder.capture()
 
     sim = scenario.sim
-    with Progress(
-        TextColumn(f"[bold]{scenario.name}"),
-        BarColumn(),
-        TextColumn("{task.completed}/{task.total}"),
-        TimeRemainingColumn(),
-        disable=not progress,
-        transient=False,
-    ) as bar:
+    with _progress_bar(scenario.name, progress) as bar:
         task = bar.add_task("run", total=int(round(sim.duration / sim.control_dt)))
 
         def step_done(done: int, total: int) -> None:  # the total grows while a task's phases wait
@@ -200,8 +203,16 @@ def simulate(
             built.predict,
             Health(built.robot, sim.control_dt),
             replay,
+            built.sensors,
+            built.actuator,
         )
     return time.perf_counter() - start
+
+
+def _progress_bar(name: str, shown: bool) -> Progress:
+    """The run's progress bar on the console (not `shown`: none)."""
+    columns = (TextColumn(f"[bold]{name}"), BarColumn(), TextColumn("{task.completed}/{task.total}"))
+    return Progress(*columns, TimeRemainingColumn(), disable=not shown, transient=False)
 
 
 def _recorder(built: Built, video: Path | None) -> VideoRecorder | None:

@@ -30,11 +30,14 @@ class HandState:
     heading_rate: float = 0.0  # [rad/s]
 
 
+Motion = Callable[[np.ndarray], np.ndarray]  # absolute times (n,) -> predicted centres (n, 3)
+
+
 @dataclass(frozen=True)
 class Obstacle:
     shape: Shape  # where it is at t = 0
     clearance: float  # required signed distance of a hand centre [m] (margin + hand radius)
-    motion: Callable[[np.ndarray], np.ndarray] | None = None  # absolute times (n,) -> predicted centres (n, 3)
+    motion: Motion | None = None  # its predicted centres (None: it stands)
 
 
 @dataclass(frozen=True)
@@ -144,11 +147,17 @@ def status_line(outcome: Outcome, routed: bool, shortfall: float, detail: str = 
     return f"{outcome.value}{what}{route}{short}"
 
 
-def planned_obstacles(obstacles: list[ObstacleSpec], grow: float) -> list[Obstacle]:
+def planned_obstacles(
+    obstacles: list[ObstacleSpec], grow: float, motions: list[Motion] | None = None
+) -> list[Obstacle]:
     """The scenario's `obstacles` as the planner and the base's footprint keep clear of them: each shape where it
-    starts, its margin plus `grow` as the clearance (the hands': their radius; the footprint's: 0), its true motion
-    as the predictor (None: it stands)."""
+    starts, its margin plus `grow` as the clearance (the hands': their radius; the footprint's: 0), its predictor
+    (None: it stands): `motions` (per obstacle, absolute times (n,) -> centres (n, 3)) or else its true motion."""
     return [
-        Obstacle(obstacle_shape(o), o.margin + grow, partial(centre_at, o) if o.motion is not None else None)
-        for o in obstacles
+        Obstacle(
+            obstacle_shape(o),
+            o.margin + grow,
+            None if o.motion is None else partial(centre_at, o) if motions is None else motions[i],
+        )
+        for i, o in enumerate(obstacles)
     ]

@@ -13,7 +13,7 @@ from harmony_cli.maths.shapes import table_shape, table_top_pose
 from harmony_cli.planning.clear_goal import FARTHEST, cleared
 from harmony_cli.planning.grip_force import GripForce, GripLaw
 from harmony_cli.planning.hand_mpc import HandMPC
-from harmony_cli.planning.hand_plan import HandState, Outcome, PlannerResult, planned_obstacles
+from harmony_cli.planning.hand_plan import HandState, Motion, Outcome, PlannerResult, planned_obstacles
 from harmony_cli.planning.hand_sqp import rate_bounds
 from harmony_cli.planning.plan_base import PlannedBase
 from harmony_cli.planning.plan_seed import Ground
@@ -37,15 +37,16 @@ LATE_RAMP = 1.0  # [s] a waiting phase's task weight ramps in over this (no jump
 class Planner:
     """Re-plans every `planner.period` control steps and samples the plan at t + knot times."""
 
-    def __init__(self, robot: Robot, scenario: Scenario):
+    def __init__(self, robot: Robot, scenario: Scenario, motions: list[Motion] | None = None):
         if scenario.task is None:
             raise ValueError(f"{scenario.name}: no task phases to plan for")
         self.scenario = scenario
         self.schedule = Schedule(scenario.task, robot.hand_names, scenario.admittance)
         self.home_rotations = np.array([r for _, r in robot.hand_poses_numeric(robot.home)])
         hands, offset = home_hands(robot)  # home heading is 0 (base yaw 0 at home)
-        obstacles = planned_obstacles(scenario.world.obstacles, scenario.planner.hand_radius)
-        base = _planned_base(scenario, robot.home[list(robot.base_joints)], hands)
+        # `motions`: per obstacle, what predicts it (absolute times -> centres); None: the scripted motions
+        obstacles = planned_obstacles(scenario.world.obstacles, scenario.planner.hand_radius, motions)
+        base = _planned_base(scenario, robot.home[list(robot.base_joints)], hands, motions)
         width = _grip_width(scenario, robot, hands)
         self.ceiling = hand_ceiling(robot, width)
         self.warnings = _above(scenario, robot.hand_names, self.ceiling, width)
@@ -246,7 +247,7 @@ def _grip(scenario: Scenario, width: float) -> GripForce | None:
     if box is None or not a.enabled or a.grip_margin <= 0.0:
         return None
     size = (float(box.size[0]), float(box.size[1]))
-    law = GripLaw(box.mass, size, width, box.friction, a.grip_margin, a.grip_scale, a.force_filter)
+    law = GripLaw(box.assumed_mass, size, width, box.friction, a.grip_margin, a.grip_scale, a.force_filter)
     return GripForce(law, scenario.sim.control_dt)
 
 
@@ -288,8 +289,10 @@ def _ground(scenario: Scenario, base: PlannedBase | None) -> Ground | None:
     return Ground(tables, 0.5 * narrowest_width(circles), base.offsets.mean(axis=0), base.yaw_home)
 
 
-def _planned_base(scenario: Scenario, base_pose: np.ndarray, hands: np.ndarray) -> PlannedBase | None:
+def _planned_base(
+    scenario: Scenario, base_pose: np.ndarray, hands: np.ndarray, motions: list[Motion] | None
+) -> PlannedBase | None:
     """The footprint as the planner carries it behind the hands (None: no footprint, or nothing to clear)."""
     circles = np.asarray(scenario.robot.footprint, dtype=float).reshape(-1, 3)
-    bodies, _ = base_bodies(scenario)
+    bodies, _ = base_bodies(scenario, motions)
     return PlannedBase.at_home(circles, base_pose, hands, bodies) if len(circles) and bodies else None

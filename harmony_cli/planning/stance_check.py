@@ -11,7 +11,7 @@ import numpy as np
 
 from harmony_cli.maths.shapes import table_legs
 from harmony_cli.mpc.clearance import FLOOR
-from harmony_cli.planning.hand_plan import Obstacle, planned_obstacles
+from harmony_cli.planning.hand_plan import Motion, Obstacle, planned_obstacles
 from harmony_cli.planning.plan_base import PlannedBase
 from harmony_cli.planning.stance import Stance, StanceClass, stance_class, stances
 from harmony_cli.planning.stance_plan import pivot_targets
@@ -71,10 +71,11 @@ def home_hands(robot: Robot) -> tuple[np.ndarray, float]:
     return np.array([p0, p1]), float(-np.arctan2(p1[1] - p0[1], p1[0] - p0[0]))
 
 
-def base_bodies(scenario: Scenario) -> tuple[list[Obstacle], list[str]]:
+def base_bodies(scenario: Scenario, motions: list[Motion] | None = None) -> tuple[list[Obstacle], list[str]]:
     """What the footprint keeps clear of, as the whole-body MPC does, and their names: every obstacle (scenario
-    order; a moving one's true motion predicts) by its margin, every table leg by the base's."""
-    bodies = planned_obstacles(scenario.world.obstacles, 0.0)
+    order; a moving one predicted by `motions` or else its true motion) by its margin, every table leg by the
+    base's."""
+    bodies = planned_obstacles(scenario.world.obstacles, 0.0, motions)
     names = [f"obstacle {o.name}" for o in scenario.world.obstacles]
     for table in scenario.world.tables:
         legs = table_legs(table)

@@ -11,6 +11,7 @@ from pydantic import ConfigDict, Field, PositiveFloat, ValidationInfo, field_val
 from harmony_cli.mpc.registry import HARMONY_SOLVERS, QpName
 from harmony_cli.scenario.base import Strict
 from harmony_cli.scenario.robot import RobotSpec
+from harmony_cli.scenario.sensing import ControlSpec, SensingSpec
 from harmony_cli.scenario.task import Reference, TaskSpec
 from harmony_cli.scenario.world import PushSpec, WorldSpec
 
@@ -254,4 +255,32 @@ class Scenario(Strict):
     admittance: AdmittanceSpec = AdmittanceSpec()
     solver: SolverSpec = SolverSpec()
     sim: SimSpec = SimSpec()
+    sensing: SensingSpec = Field(SensingSpec(), description="measurement noise and delay (scenario/sensing.py)")
+    control: ControlSpec = Field(ControlSpec(), description="when a command acts (scenario/sensing.py)")
     pushes: list[PushSpec] = Field([], description="scripted external forces (see PushSpec)")
+
+    @field_validator("sensing")
+    @classmethod
+    def _delay_in_control_steps(cls, sensing: SensingSpec, info: ValidationInfo) -> SensingSpec:
+        sim = info.data.get("sim")
+        if sim is not None:
+            _whole_multiple("delay", sensing.delay, sim.control_dt, "sim.control_dt")
+        return sensing
+
+    @field_validator("control")
+    @classmethod
+    def _latency_in_physics_steps(cls, control: ControlSpec, info: ValidationInfo) -> ControlSpec:
+        sim = info.data.get("sim")
+        if sim is not None and control.latency != "measured":
+            _whole_multiple("latency", float(control.latency), sim.physics_dt, "sim.physics_dt")
+        return control
+
+
+def _whole_multiple(name: str, value: float, step: float, step_name: str) -> None:
+    """ValueError unless `value` [s] is a whole number of `step`s."""
+    ratio = value / step
+    if abs(ratio - round(ratio)) > 1e-9:
+        raise ValueError(
+            f"{name} {value:g} s is not a whole multiple of {step_name} {step:g} s; valid: k x {step:g}, e.g. "
+            f"{round(ratio) * step:.6g} or {(round(ratio) + 1) * step:.6g}"
+        )

@@ -60,6 +60,20 @@ class ObstacleSpec(Strict):
     size: Size3
     margin: float = Field(0.05, ge=0, description="clearance the MPCs keep from its surface [m]")
     motion: MotionSpec | None = Field(None, description="none: static")
+    prediction: Literal["truth", "estimated"] = Field(
+        "truth",
+        description="what both MPCs predict a moving obstacle's motion from: its scripted motion (truth), or a "
+        "constant-velocity Kalman filter on its measured centre (sensing.noise.obstacle_position)",
+    )
+
+    @model_validator(mode="after")
+    def _estimated_moves(self):
+        if self.prediction == "estimated" and self.motion is None:
+            raise ValueError(
+                f"prediction: estimated needs a motion; obstacle {self.name!r} stands where the scenario puts it "
+                "(choose truth, or give it a motion)"
+            )
+        return self
 
     @model_validator(mode="before")
     @classmethod
@@ -109,6 +123,13 @@ class BoxSpec(Strict):
         description="torsional friction about a contact normal [m]: keeps the box from pivoting between the pads",
     )
     goal: Vector3 | None = Field(None, description="where the box should end (centre) [m]; success within 5 cm")
+    mass_known: bool = Field(True, description="false: the controller's grip law assumes `nominal_mass`, not `mass`")
+    nominal_mass: PositiveFloat = Field(1.0, description="[kg] the mass the controller assumes when mass_known: false")
+
+    @property
+    def assumed_mass(self) -> float:
+        """[kg] the mass the controller works with."""
+        return self.mass if self.mass_known else self.nominal_mass
 
 
 class WorldSpec(Strict):
