@@ -5,7 +5,7 @@ STAMP := $(VENV)/.installed
 HARMONY := $(VENV)/bin/harmony
 TABLE1 := scenarios/paper/table1_s_shape.yaml
 
-.PHONY: install lint test test-slow bench reproduce-paper engines robots-unedited study study-validation docs clean
+.PHONY: install lint test test-slow bench reproduce-paper engines robots-unedited study study-validation claims docs clean
 
 # Ranges live in pyproject.toml; constraints.txt pins the versions every install uses (refresh it with
 # `.venv/bin/pip freeze | grep -v '^-e' > constraints.txt` after a deliberate upgrade).
@@ -36,6 +36,14 @@ test: $(STAMP)
 
 test-slow: $(STAMP)
 	$(VENV)/bin/pytest -q -m slow
+
+# the paper's claims over distributions and under imperfections (studies/claims_*.yaml, their validation draws);
+# CLAIMS_ON="--ray auto" runs them on a Ray cluster
+CLAIMS := claims_table1 claims_admittance claims_moving_obstacle claims_sensing
+CLAIMS_ON ?= --jobs 2
+claims: $(STAMP)
+	for s in $(CLAIMS); do \
+		$(HARMONY) study studies/$$s.yaml --draws validation $(CLAIMS_ON) --out results/claims/$$s || exit 1; done
 
 bench: $(STAMP)
 	$(HARMONY) bench --scenario $(TABLE1) --out results/bench/bench.json --engine pybullet --engine mujoco

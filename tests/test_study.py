@@ -23,8 +23,9 @@ from harmony_cli.maths.shapes import obstacle_shape, table_shape
 from harmony_cli.planning.stance import StanceClass
 from harmony_cli.planning.stance_check import written_stance_class
 from harmony_cli.scenario import ScenarioError, load_scenario
+from harmony_cli.study.intervals import wilson
 from harmony_cli.study.plan import plan_runs
-from harmony_cli.study.report import refusal_kind, wilson, write_report
+from harmony_cli.study.report import refusal_kind, write_report
 from harmony_cli.study.runner import Options, plan_study, run_study
 from harmony_cli.study.sampling import Sampler
 from harmony_cli.study.scene_kind import COLUMN as SCENE_KIND
@@ -360,7 +361,7 @@ def test_the_report_lists_the_draws_two_grid_points_disagree_on_with_each_reason
 
 def test_a_grid_axis_from_the_command_line_crosses_every_sample_with_its_values(tmp_path):
     plan = plan_study(STUDY, Options(out=tmp_path, samples=2, progress=False, grid=("mpc.knots=6,26",)))
-    assert [(run.sample.index, run.point) for run in plan.runs] == [
+    assert [(run.sample.index, run.point.values) for run in plan.runs] == [
         (0, {"mpc.knots": 6}),
         (0, {"mpc.knots": 26}),
         (1, {"mpc.knots": 6}),

@@ -13,7 +13,7 @@ import yaml
 
 import harmony_cli
 from harmony_cli.scenario import Scenario, scenario_yaml
-from harmony_cli.study.sampling import Sample, Sampler, point_overrides
+from harmony_cli.study.sampling import BASE, GridPoint, Sample, Sampler, point_overrides
 from harmony_cli.study.spec import StudySpec
 
 KEY_CHARS = 16
@@ -38,7 +38,7 @@ def code_version() -> str:
 @dataclass(frozen=True)
 class PlannedRun:
     sample: Sample
-    point: dict[str, Any]  # grid field -> value ({} without a grid)
+    point: GridPoint  # the grid point it runs at (BASE without a grid)
     overrides: list[str]  # everything `harmony run` gets after the base scenario, in order
     key: str  # hash of the resolved scenario and the code version
     duration: float = 0.0  # [s] its simulated duration as written (sim.duration)
@@ -46,18 +46,14 @@ class PlannedRun:
 
     @property
     def label(self) -> str:
-        """The grid point as a name (`base` without a grid)."""
-        return point_label(self.point)
+        """The grid point's name (`base` without a grid)."""
+        return self.point.label
 
     @property
     def name(self) -> str:
         """The run directory's name: readable, and unique per key."""
-        grid = "" if not self.point else f"-{self.label}"
+        grid = "" if self.point == BASE else f"-{self.label}"
         return f"s{self.sample.index:05d}{grid}-{self.key[:8]}"
-
-
-def point_label(point: dict[str, Any]) -> str:
-    return "_".join(f"{k.split('.')[-1]}-{v}" for k, v in point.items()) or "base"
 
 
 def run_key(scenario: Scenario, scenario_path: Path) -> str:

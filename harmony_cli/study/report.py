@@ -15,14 +15,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import yaml
-from scipy.stats import binomtest
 
 from harmony_cli.planning.stance import StanceClass
 from harmony_cli.report.figure import plt, save
 from harmony_cli.report.text import markdown_cell
+from harmony_cli.study.claims import claim_lines
 from harmony_cli.study.disagreement import disagreement_lines
 from harmony_cli.study.draw_map import draw_map
+from harmony_cli.study.intervals import wilson
 from harmony_cli.study.scene_kind import COLUMN as SCENE_KIND
+from harmony_cli.study.spec import Claim
 from harmony_cli.study.table import IMPOSSIBLE, SUCCESS, SUCCESS_LATE, TABLE
 
 METRICS = (  # (column or prefix, what it is, unit scale, unit): distributions in the report
@@ -35,14 +37,6 @@ METRICS = (  # (column or prefix, what it is, unit scale, unit): distributions i
     ("summary.failed_solves", "failed whole-body solves", 1.0, ""),
     ("summary.task.planner_failures", "failed planner solves", 1.0, ""),
 )
-
-
-def wilson(successes: int, n: int) -> tuple[float, float]:
-    """Wilson score 95 % interval of a binomial proportion (good at small n and at rates near 0 or 1)."""
-    if n == 0:
-        return (math.nan, math.nan)
-    interval = binomtest(successes, n).proportion_ci(confidence_level=0.95, method="wilson")
-    return (float(interval.low), float(interval.high))
 
 
 def metric(table: pd.DataFrame, column: str) -> pd.Series:
@@ -197,6 +191,8 @@ def write_report(study: Path) -> list[Path]:
     counts = table.groupby(["point", "outcome"], sort=False).size().unstack(fill_value=0)
     lines += ["", "## Outcomes by category", "", _markdown(counts.reset_index())] + scene_kind_lines(table)
     lines += disagreement_lines(table)
+    claims = yaml.safe_load(spec.read_text()).get("claims", []) if spec.is_file() else []
+    lines += claim_lines(table, [Claim.model_validate(c) for c in claims])
     lines += ["", "## Run metrics (median / p95 / max over runs with a value)", ""]
     lines += ["| metric | grid point | runs | median | p95 | max |", "|---|---|---:|---:|---:|---:|"]
     for column, what, scale, unit in METRICS:

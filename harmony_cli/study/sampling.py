@@ -68,10 +68,28 @@ def override(key: str, value: Any) -> str:
     return f"{key}={yaml.safe_dump(value, default_flow_style=True, width=1 << 16).strip().removesuffix('...').strip()}"
 
 
-def grid_points(spec: StudySpec) -> list[dict[str, Any]]:
-    """The grid's points (field -> value), [{}] without a grid."""
+@dataclass(frozen=True)
+class GridPoint:
+    """One setting every draw runs at: the fields it sets (field -> value) and its name (`base`: no grid)."""
+
+    label: str
+    values: dict[str, Any]
+
+
+BASE = GridPoint("base", {})
+
+
+def grid_points(spec: StudySpec) -> list[GridPoint]:
+    """The points of the grid's product, or the named points, or [BASE] with neither."""
+    if spec.points:
+        return [GridPoint(name, values) for name, values in spec.points.items()]
     keys = list(spec.grid)
-    return [dict(zip(keys, values, strict=True)) for values in itertools.product(*spec.grid.values())]
+    points = [dict(zip(keys, values, strict=True)) for values in itertools.product(*spec.grid.values())]
+    return [GridPoint(point_label(point), point) if point else BASE for point in points]
+
+
+def point_label(point: dict[str, Any]) -> str:
+    return "_".join(f"{k.split('.')[-1]}-{v}" for k, v in point.items()) or "base"
 
 
 class Sampler:
@@ -127,8 +145,8 @@ class Sampler:
         return None
 
 
-def point_overrides(point: dict[str, Any]) -> list[str]:
-    return [override(k, v) for k, v in point.items()]
+def point_overrides(point: GridPoint) -> list[str]:
+    return [override(k, v) for k, v in point.values.items()]
 
 
 def _numeric(value: Any) -> bool:

@@ -8,8 +8,9 @@ run to report and never to choose between variants, and a test set whose seed is
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import yaml
 from pydantic import Field, PositiveInt, ValidationError, model_validator
@@ -21,6 +22,7 @@ from harmony_cli.scenario.source import load_yaml_file
 
 MAX_SAMPLES = 100_000
 KINDS = ("uniform", "normal", "choice", "integers", "yaw_deg")
+NAME = re.compile(r"[A-Za-z0-9_.-]+")  # a name that is also part of a run directory's name
 
 Value = float | list[float]
 
@@ -83,6 +85,29 @@ class SceneCheck(Strict):
     clearance: float = Field(0.0, ge=0, description="extra gap every obstacle keeps from tables and the box [m]")
 
 
+class Paired(Strict):
+    """One setting against another on the same draws: grid field `field` at `a` against `b` (`point`: named grid
+    points), every other grid field held."""
+
+    field: str = Field(description="a grid field, or `point` for the grid points by name")
+    a: Any
+    b: Any
+    statistic: Literal["ratio", "difference"] = Field(
+        "ratio", description="per draw a / b, their median; or a - b, their mean; each with a bootstrap interval"
+    )
+
+
+class Claim(Strict):
+    """A metric the report states per grid point (its median, with a bootstrap interval) and, with `paired`, as a
+    paired comparison."""
+
+    name: str
+    metric: str = Field(description="a study.parquet column, e.g. summary.solve_time_ms.median or success")
+    scale: float = Field(1.0, description="the metric's values are multiplied by this in the report")
+    unit: str = ""
+    paired: Paired | None = None
+
+
 class StudySpec(Strict):
     name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$", description="also the default output directory's name")
     description: str = ""
@@ -95,7 +120,12 @@ class StudySpec(Strict):
         {}, description="scenario field (dotted; list items by index or name) -> its distribution"
     )
     grid: dict[str, list[Any]] = Field({}, description="scenario field -> values, each crossed with every sample")
+    points: dict[str, dict[str, Any]] = Field(
+        {},
+        description="instead of a grid: named settings (name -> scenario field -> value), each run on every sample",
+    )
     check: SceneCheck = SceneCheck()
+    claims: list[Claim] = Field([], description="metrics stated with intervals, and paired comparisons (report.md)")
 
     @model_validator(mode="before")
     @classmethod
@@ -108,12 +138,34 @@ class StudySpec(Strict):
 
     @model_validator(mode="after")
     def _axes(self) -> StudySpec:
+        if self.grid and self.points:
+            raise ValueError("give a grid or named points, not both")
+        for name, sets in self.points.items():
+            if not NAME.fullmatch(name) or name == "base":
+                raise ValueError(f"point name {name!r}: letters, digits, '_', '.', '-' only, and not 'base'")
+            if clash := next((k for k in sets if k in self.vary), None):
+                raise ValueError(f"point {name!r}: {clash!r} is both varied and set by the point; choose one")
         for key, values in self.grid.items():
             if not values:
                 raise ValueError(f"grid {key!r} has no values")
             if key in self.vary:
                 raise ValueError(f"{key!r} is both varied and a grid axis; choose one")
+        for claim in self.claims:
+            paired = claim.paired
+            if paired is not None and paired.field == "point":
+                if missing := [v for v in (paired.a, paired.b) if v not in self.points]:
+                    raise ValueError(f"claim {claim.name!r}: {missing[0]!r} is not a named point ({list(self.points)})")
+            elif paired is not None:
+                axis = self.grid.get(paired.field)
+                if axis is None:
+                    raise ValueError(f"claim {claim.name!r}: {paired.field!r} is not a grid field ({_axes(self)})")
+                if missing := [v for v in (paired.a, paired.b) if v not in axis]:
+                    raise ValueError(f"claim {claim.name!r}: {missing[0]!r} is not a value of grid {paired.field!r}")
         return self
+
+
+def _axes(spec: StudySpec) -> str:
+    return "the grid has " + (", ".join(spec.grid) or "none")
 
 
 def draw_set(spec: StudySpec, name: str | None, seed: int | None, samples: int | None) -> tuple[str, DrawSet]:

@@ -89,7 +89,7 @@ def run_row(run: PlannedRun, run_dir: Path) -> dict[str, Any]:
         "resamples": len(run.sample.rejected),
         "rejected": list(run.sample.rejected),  # why each earlier draw of the sample was refused
     }
-    row |= {f"grid.{k}": v for k, v in run.point.items()}
+    row |= {f"grid.{k}": v for k, v in run.point.values.items()}
     row |= flatten(run.sample.values, "vary") | flatten(run.scene, "scene")
     row |= {k: v for k, v in flatten(summary, "summary").items() if k not in ("summary.status", "summary.reason")}
     return row
