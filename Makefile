@@ -44,6 +44,7 @@ CLAIMS_ON ?= --jobs 2
 claims: $(STAMP)
 	for s in $(CLAIMS); do \
 		$(HARMONY) study studies/$$s.yaml --draws validation $(CLAIMS_ON) --out results/claims/$$s || exit 1; done
+	$(VENV)/bin/python tools/claims_table.py results/claims/claims.md $(addprefix results/claims/,$(CLAIMS))
 
 bench: $(STAMP)
 	$(HARMONY) bench --scenario $(TABLE1) --out results/bench/bench.json --engine pybullet --engine mujoco

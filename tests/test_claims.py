@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 from conftest import ROOT
 
 from harmony_cli.scenario import ScenarioError
-from harmony_cli.study.claims import claim_lines, paired_estimates
+from harmony_cli.study.claims import claim_lines, paired_comparisons
 from harmony_cli.study.runner import Options, plan_study
 from harmony_cli.study.spec import Claim, Paired
 
@@ -35,7 +36,8 @@ def _table1_like(rng) -> pd.DataFrame:
 def test_a_paired_ratio_is_stated_per_value_of_the_other_grid_fields_and_holds_only_where_there_is_an_effect(rng):
     table = _table1_like(rng)
     values = table["summary.solve_time_ms.median"]
-    estimates = dict(paired_estimates(table, values, Paired(field="mpc.transcription", a="traditional", b="bezier")))
+    paired = Paired(field="mpc.transcription", a="traditional", b="bezier")
+    estimates = {c.label: c.estimate for c in paired_comparisons(table, values, paired)}
     assert set(estimates) == {"knots = 6", "knots = 26"}
     assert estimates["knots = 26"].value == pytest.approx(2.0, abs=0.05) and estimates["knots = 26"].excludes(1.0)
     assert not estimates["knots = 6"].excludes(1.0) and estimates["knots = 6"].n == 30
@@ -53,8 +55,8 @@ def test_the_claims_section_states_each_point_s_median_with_its_interval_and_the
     assert "BCa bootstrap over draws" in text and "### bezier is faster: summary.solve_time_ms.median [ms]" in text
     assert text.count("n = 30") == 4 + 2  # four grid points, two paired rows
     rows = {line.split(" | ")[0]: line for line in text.splitlines() if line.startswith("| knots = ")}
-    assert rows["| knots = 26"].endswith("| yes |") and "| 30 | 2" in rows["| knots = 26"]
-    assert rows["| knots = 6"].endswith("| no |")
+    assert rows["| knots = 26"].endswith("| yes | - |") and "| 30 | 2" in rows["| knots = 26"]
+    assert "| no |" in rows["| knots = 6"]
 
 
 def test_named_points_pair_by_name_and_a_success_rate_difference_is_a_paired_mean():
@@ -67,8 +69,22 @@ def test_named_points_pair_by_name_and_a_success_rate_difference_is_a_paired_mea
     claim = Claim(
         name="noise", metric="success", paired=Paired(field="point", a="noisy", b="baseline", statistic="difference")
     )
-    [(label, estimate)] = paired_estimates(table, table["success"].astype(float), claim.paired)
-    assert label == "all" and estimate.value == pytest.approx(-0.25) and estimate.excludes(0.0)
+    [comparison] = paired_comparisons(table, table["success"].astype(float), claim.paired)
+    assert comparison.label == "all" and comparison.estimate.value == pytest.approx(-0.25)
+    assert comparison.estimate.excludes(0.0)
+    assert comparison.against(0.0) == []  # no draw the noise saved
+    assert len(comparison.per_draw[comparison.per_draw < 0]) == 10
+
+
+def test_the_draws_against_a_comparison_are_those_whose_own_ratio_goes_the_other_way():
+    rows = [
+        {"sample": s, "point": p, "grid.x": x, "t": t}
+        for s, (slow, fast) in enumerate([(2.0, 1.0), (3.0, 1.0), (1.0, 2.0), (2.5, 1.0)])
+        for p, x, t in (("x-a", "a", slow), ("x-b", "b", fast))
+    ]
+    table = pd.DataFrame(rows)
+    [comparison] = paired_comparisons(table, table["t"], Paired(field="x", a="a", b="b"))
+    assert comparison.estimate.value > 1.0 and comparison.against(1.0) == [2]
 
 
 def test_a_study_with_named_points_runs_every_draw_at_each_point_under_its_name(tmp_path):
@@ -104,3 +120,18 @@ def test_a_claim_or_point_that_names_nothing_in_the_study_is_refused_in_one_line
     with pytest.raises(ScenarioError) as info:
         plan_study(path, Options(out=tmp_path / "out", samples=1, progress=False))
     assert piece in str(info.value) and "\n" not in str(info.value) and str(path) in str(info.value)
+
+
+def test_the_claims_table_of_several_studies_has_a_row_per_paired_comparison_and_says_whether_it_holds(tmp_path):
+    from harmony_cli.study.claims import summary_lines
+
+    study = tmp_path / "table1"
+    study.mkdir()
+    _table1_like(np.random.default_rng(5)).to_parquet(study / "study.parquet")
+    claim = {"name": "speed", "metric": "summary.solve_time_ms.median"}
+    claim["paired"] = {"field": "mpc.transcription", "a": "traditional", "b": "bezier"}
+    (study / "study.yaml").write_text(yaml.safe_dump({"name": "table1", "claims": [claim]}))
+    rows = [line for line in summary_lines([study]) if line.startswith("| table1 |")]
+    assert len(rows) == 2
+    assert rows[0].startswith("| table1 | speed | traditional / bezier | knots = 6 | 30 |") and "| no |" in rows[0]
+    assert "| yes |" in rows[1]

@@ -57,10 +57,10 @@ class Sensors:
             return self.sim.observe()
         measured = self._noisy(self.sim.observe())
         self.queue.append(measured)
-        if self.tracks:
-            centres = self.tracks.true_centres(t) + self.obstacle_bias
+        if self.tracks:  # the obstacles as measured `delay` ago, like everything else
+            centres = self.tracks.true_centres(t - self.delay) + self.obstacle_bias
             centres = centres + self.rng.normal(0.0, self.noise.obstacle_position.std, centres.shape)
-            self.tracks.update(t - self.delay, centres)  # a delayed measurement is one of then
+            self.tracks.update(t - self.delay, centres)
         return self.queue[0]
 
     def _noisy(self, obs: Observation) -> Observation:
