@@ -52,7 +52,7 @@ def test_the_claims_section_states_each_point_s_median_with_its_interval_and_the
         paired=Paired(field="mpc.transcription", a="traditional", b="bezier"),
     )
     text = "\n".join(claim_lines(table, [claim]))
-    assert "BCa bootstrap over draws" in text and "### bezier is faster: summary.solve_time_ms.median [ms]" in text
+    assert "bootstrap over draws, BCa" in text and "### bezier is faster: summary.solve_time_ms.median [ms]" in text
     assert text.count("n = 30") == 4 + 2  # four grid points, two paired rows
     rows = {line.split(" | ")[0]: line for line in text.splitlines() if line.startswith("| knots = ")}
     assert rows["| knots = 26"].endswith("| yes | - |") and "| 30 | 2" in rows["| knots = 26"]

@@ -34,6 +34,16 @@ def test_pairing_finds_a_small_effect_that_the_draws_spread_hides_unpaired():
 
 
 def test_a_median_of_equal_values_is_that_value_with_no_spread_and_too_few_values_give_no_interval():
-    assert median_interval([3.0] * 10).text() == "3 (3-3, n = 10)"
+    assert median_interval([3.0] * 10).text() == "3 (3 to 3, n = 10)"
     assert median_interval([1.0]).text() == "n/a"
     assert np.isnan(median_interval([np.nan, 2.0]).low)
+
+
+def test_a_difference_of_successes_with_few_distinct_values_gets_the_percentile_interval_without_warnings():
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        estimate = paired_difference([0, 0, 0, 1, 0, 0, 0, 0], [1, 1, 1, 1, 1, 1, 1, 1])
+    assert estimate.value == pytest.approx(-0.875) and estimate.low <= -0.875 <= estimate.high
+    assert np.isfinite(estimate.low) and estimate.high < 0.0

@@ -17,7 +17,7 @@ from harmony_cli.study.intervals import Estimate, median_interval, paired_differ
 from harmony_cli.study.spec import Claim, Paired
 from harmony_cli.study.table import TABLE
 
-METHOD = "BCa bootstrap over draws, 9999 resamples, 95 %"
+METHOD = "bootstrap over draws, BCa (percentile where BCa is undefined), 9999 resamples, 95 %"
 MOST_LISTED = 20  # draws named against a comparison, at most
 
 

@@ -2,16 +2,18 @@
 and of paired comparisons (the same draws under two settings: common random numbers).
 
 Every interval says its method and n. The bootstrap is scipy's (`scipy.stats.bootstrap`, BCa, 9999 resamples,
-seeded so that a report is reproducible); a paired comparison resamples the draws, keeping each draw's two runs
-together."""
+seeded so that a report is reproducible; the percentile interval where BCa is undefined, as for a statistic of a
+few distinct values such as differences of successes); a paired comparison resamples the draws, keeping each
+draw's two runs together."""
 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import binomtest, bootstrap
+from scipy.stats import DegenerateDataWarning, binomtest, bootstrap
 
 CONFIDENCE = 0.95
 RESAMPLES = 9999
@@ -43,16 +45,16 @@ class Estimate:
         if self.n < 2:
             return "n/a"
         v, lo, hi = (scale * x for x in (self.value, self.low, self.high))
-        return f"{v:.{digits}g} ({lo:.{digits}g}-{hi:.{digits}g}, n = {self.n})"
+        return f"{v:.{digits}g} ({lo:.{digits}g} to {hi:.{digits}g}, n = {self.n})"
 
 
 def median_interval(values) -> Estimate:
-    """The median of `values` (nan dropped) with its BCa bootstrap 95 % interval."""
+    """The median of `values` (nan dropped) with its bootstrap 95 % interval (BCa, or percentile)."""
     return _bootstrap(np.asarray(values, dtype=float), np.median)
 
 
 def mean_interval(values) -> Estimate:
-    """The mean of `values` (nan dropped) with its BCa bootstrap 95 % interval."""
+    """The mean of `values` (nan dropped) with its bootstrap 95 % interval (BCa, or percentile)."""
     return _bootstrap(np.asarray(values, dtype=float), np.mean)
 
 
@@ -77,13 +79,22 @@ def _bootstrap(values: np.ndarray, statistic) -> Estimate:
     value = float(statistic(values))
     if np.all(values == values[0]):  # no spread: the interval is the value (BCa is undefined)
         return Estimate(value, value, value, n)
-    result = bootstrap(
-        (values,),
-        statistic,
-        confidence_level=CONFIDENCE,
-        n_resamples=RESAMPLES,
-        method="BCa",
-        random_state=np.random.default_rng(SEED),
-    )
-    interval = result.confidence_interval
-    return Estimate(value, float(interval.low), float(interval.high), n)
+    for method in ("BCa", "percentile"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # BCa's acceleration on few distinct values
+            warnings.simplefilter("error", DegenerateDataWarning)
+            try:
+                result = bootstrap(
+                    (values,),
+                    statistic,
+                    confidence_level=CONFIDENCE,
+                    n_resamples=RESAMPLES,
+                    method=method,
+                    random_state=np.random.default_rng(SEED),
+                )
+            except DegenerateDataWarning:
+                continue  # BCa is undefined here: the percentile interval
+        interval = result.confidence_interval
+        if np.isfinite(interval.low) and np.isfinite(interval.high):
+            return Estimate(value, float(interval.low), float(interval.high), n)
+    return Estimate(value, math.nan, math.nan, n)
