@@ -48,6 +48,12 @@ class Comparison:
     estimate: Estimate
     per_draw: pd.Series
 
+    def cells(self, no_effect: float) -> str:
+        """A report row's last cells: pairs, the statistic with its interval, whether it holds, the draws against."""
+        estimate = self.estimate
+        holds = "n/a" if estimate.n < 2 else ("yes" if estimate.excludes(no_effect) else "no")
+        return f"{estimate.n} | {estimate.text()} | {holds} | {_listed(self.against(no_effect))} |"
+
     def against(self, no_effect: float) -> list[int]:
         """The draws whose own value lies on the other side of no effect from the estimate (none without one)."""
         side = np.sign(self.estimate.value - no_effect)
@@ -78,18 +84,11 @@ def paired_comparisons(table: pd.DataFrame, values: pd.Series, paired: Paired) -
 
 def _paired_lines(table: pd.DataFrame, values: pd.Series, paired: Paired) -> list[str]:
     what = "median of a / b" if paired.statistic == "ratio" else "mean of a - b"
-    no_effect = 1.0 if paired.statistic == "ratio" else 0.0
     lines = ["", f"Paired on the same draws: a = {paired.field} {paired.a}, b = {paired.b}; {what} per draw.", ""]
     header = "| held | pairs | statistic (95 % interval) | the interval excludes no effect | draws against it |"
     lines += [header, "|---|---:|---|---|---|"]
-    for comparison in paired_comparisons(table, values, paired):
-        estimate = comparison.estimate
-        holds = "n/a" if estimate.n < 2 else ("yes" if estimate.excludes(no_effect) else "no")
-        lines.append(
-            f"| {comparison.label} | {estimate.n} | {estimate.text()} | {holds} | "
-            f"{_listed(comparison.against(no_effect))} |"
-        )
-    return lines
+    comparisons = paired_comparisons(table, values, paired)
+    return lines + [f"| {c.label} | {c.cells(paired.no_effect)}" for c in comparisons]
 
 
 def _values(table: pd.DataFrame, claim: Claim) -> pd.Series:
@@ -119,15 +118,11 @@ def summary_lines(studies: list[Path]) -> list[str]:
         for claim in (Claim.model_validate(c) for c in spec.get("claims", [])):
             if claim.paired is None:
                 continue
-            paired, values = claim.paired, _values(table, claim)
-            no_effect = 1.0 if paired.statistic == "ratio" else 0.0
+            paired, name = claim.paired, spec.get("name", study.name)
             what = f"{paired.a} {'/' if paired.statistic == 'ratio' else '-'} {paired.b}"
-            for comparison in paired_comparisons(table, values, paired):
-                estimate = comparison.estimate
-                holds = "n/a" if estimate.n < 2 else ("yes" if estimate.excludes(no_effect) else "no")
+            for comparison in paired_comparisons(table, _values(table, claim), paired):
                 lines.append(
-                    f"| {spec.get('name', study.name)} | {claim.name} | {what} | {comparison.label} | {estimate.n} | "
-                    f"{estimate.text()} | {holds} | {_listed(comparison.against(no_effect))} |"
+                    f"| {name} | {claim.name} | {what} | {comparison.label} | {comparison.cells(paired.no_effect)}"
                 )
     return lines
 

@@ -96,6 +96,11 @@ class Paired(Strict):
         "ratio", description="per draw a / b, their median; or a - b, their mean; each with a bootstrap interval"
     )
 
+    @property
+    def no_effect(self) -> float:
+        """The statistic's value when the settings do not differ: a ratio of 1, a difference of 0."""
+        return 1.0 if self.statistic == "ratio" else 0.0
+
 
 class Claim(Strict):
     """A metric the report states per grid point (its median, with a bootstrap interval) and, with `paired`, as a
