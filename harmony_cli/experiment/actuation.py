@@ -2,7 +2,7 @@
 at t plus a latency, in whole physics steps; until then the one before it drives the joints. A fixed latency is
 written in seconds; `measured` takes each command's own compute time (observation to command, wall clock), rounded
 up to physics steps, so such a run depends on the machine that runs it. Without latency a command acts at once, as
-one `apply` and one `step` of the control period: the calls the simulator got before there was a latency."""
+one `apply` and one `step` of the control period: the same calls as a loop that drives the simulator directly."""
 
 from __future__ import annotations
 
