@@ -13,12 +13,13 @@ $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "harmony needs Python 3.11 (PyBullet wheels)"'
 	$(PYTHON) -m venv $(VENV)
 	$(VENV)/bin/pip install -q --upgrade pip
-	$(VENV)/bin/pip install -q -c constraints.txt -e '.[test,dev,robots,study,ray,view]'
+	$(VENV)/bin/pip install -q -c constraints.txt -e '.[test,dev,robots,study,ray,view,docs]'
 	touch $(STAMP)
 
 install: $(STAMP)
 
-# ruff (lint + format), mypy, import contracts (import-linter), module/function/README sizes, docs tables in sync
+# ruff (lint + format), mypy, import contracts (import-linter), module/function/README sizes, docs tables in sync,
+# the docs site (mkdocs.yml) built with every link resolved
 lint: $(STAMP)
 	$(VENV)/bin/ruff check harmony_cli tests tools
 	$(VENV)/bin/ruff format --check harmony_cli tests tools
@@ -26,6 +27,7 @@ lint: $(STAMP)
 	$(VENV)/bin/lint-imports --no-cache
 	$(VENV)/bin/python tools/check_sizes.py harmony_cli
 	$(VENV)/bin/python tools/render_docs.py --check
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --quiet
 
 # the tables in docs/*.md from the committed result files
 docs: $(STAMP)
