@@ -5,7 +5,7 @@ STAMP := $(VENV)/.installed
 HARMONY := $(VENV)/bin/harmony
 TABLE1 := scenarios/paper/table1_s_shape.yaml
 
-.PHONY: install lint test test-slow bench reproduce-paper engines robots-unedited study study-validation claims docs clean
+.PHONY: install quickstart lint test test-slow bench reproduce-paper engines robots-unedited study study-validation claims docs clean
 
 # Ranges live in pyproject.toml; constraints.txt pins the versions every install uses (refresh it with
 # `.venv/bin/pip freeze | grep -v '^-e' > constraints.txt` after a deliberate upgrade).
@@ -17,6 +17,10 @@ $(STAMP): pyproject.toml constraints.txt
 	touch $(STAMP)
 
 install: $(STAMP)
+
+# a newcomer's first minute: the paper's box carry, closed loop in PyBullet, into results/runs/pick_and_carry-<time>/
+quickstart: $(STAMP)
+	$(HARMONY) run scenarios/paper/pick_and_carry.yaml
 
 # ruff (lint + format), mypy, import contracts (import-linter), module/function/README sizes, docs tables in sync,
 # the docs site (mkdocs.yml) built with every link resolved

@@ -1,5 +1,5 @@
 """Size limits (make lint): no module over 300 lines, no function over 60 (docstring included), a README (the
-user guide; measurements live in docs/) of at most 300 lines.
+user guide; measurements live in docs/) of at most 300 lines, none of them over 120 characters.
 
     python tools/check_sizes.py [harmony_cli]
 
@@ -12,7 +12,7 @@ import ast
 import sys
 from pathlib import Path
 
-MODULE_LINES, FUNCTION_LINES, README_LINES = 300, 60, 300
+MODULE_LINES, FUNCTION_LINES, README_LINES, README_WIDTH = 300, 60, 300, 120
 README = Path(__file__).resolve().parents[1] / "README.md"
 ALLOWED: dict[str, str] = {}  # "path" or "path:function" -> why it may be longer
 
@@ -34,8 +34,14 @@ def oversized(root: Path) -> list[str]:
 
 def main() -> int:
     problems = oversized(Path(sys.argv[1] if len(sys.argv) > 1 else "harmony_cli"))
-    if (lines := len(README.read_text().splitlines())) > README_LINES:
-        problems.append(f"{README}: {lines} lines (limit {README_LINES}); measurements belong in docs/")
+    readme = README.read_text().splitlines()
+    if len(readme) > README_LINES:
+        problems.append(f"{README}: {len(readme)} lines (limit {README_LINES}); measurements belong in docs/")
+    problems += [
+        f"{README}:{number}: {len(line)} characters (limit {README_WIDTH})"
+        for number, line in enumerate(readme, 1)
+        if len(line) > README_WIDTH
+    ]
     for line in problems:
         print(line)
     return 1 if problems else 0
