@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 import typer
 
+import harmony_cli
 from harmony_cli.commands.robots import robots_app
 from harmony_cli.commands.study import study
 from harmony_cli.commands.upgrade import upgrade
@@ -22,6 +23,21 @@ app = typer.Typer(
     help="Whole-body Bezier MPC experiments for dual-arm mobile manipulators, from YAML.",
 )
 SET_HELP = "Override a scenario field, e.g. --set mpc.knots=6 (repeatable)."
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        typer.echo(f"harmony {harmony_cli.__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _options(
+    version: bool = typer.Option(
+        False, "--version", callback=_print_version, is_eager=True, help="Print harmony's version and exit."
+    ),
+) -> None:
+    """The options before any command (`--version`)."""
 
 
 def _click_errors() -> tuple[tuple[type[Exception], ...], tuple[type[BaseException], ...]]:
