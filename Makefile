@@ -23,7 +23,7 @@ quickstart: $(STAMP)
 	$(HARMONY) run scenarios/paper/pick_and_carry.yaml
 
 # ruff (lint + format), mypy, import contracts (import-linter), module/function/README sizes, docs tables in sync,
-# the docs site (mkdocs.yml) built with every link resolved
+# docs that read as results not a diary (tools/check_docs.py), the docs site (mkdocs.yml) with every link resolved
 lint: $(STAMP)
 	$(VENV)/bin/ruff check harmony_cli tests tools
 	$(VENV)/bin/ruff format --check harmony_cli tests tools
@@ -31,6 +31,7 @@ lint: $(STAMP)
 	$(VENV)/bin/lint-imports --no-cache
 	$(VENV)/bin/python tools/check_sizes.py harmony_cli
 	$(VENV)/bin/python tools/render_docs.py --check
+	$(VENV)/bin/python tools/check_docs.py
 	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --quiet
 
 # the tables in docs/*.md from the committed result files
