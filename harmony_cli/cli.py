@@ -10,6 +10,7 @@ import click
 import typer
 
 import harmony_cli
+from harmony_cli.commands.examples import examples
 from harmony_cli.commands.robots import robots_app
 from harmony_cli.commands.study import study
 from harmony_cli.commands.upgrade import upgrade
@@ -276,6 +277,7 @@ def summarise(run_dir: Path):
     typer.echo(literal(f"{run_dir}: {summary['status']}, {steps} steps; steps.csv, summary.json and plots rebuilt"))
 
 
+app.command()(examples)
 app.command()(study)
 app.command()(upgrade)
 app.add_typer(robots_app, name="robots")

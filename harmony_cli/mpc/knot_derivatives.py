@@ -106,8 +106,11 @@ class KnotDerivatives:
         return float(r @ r + r_lin @ r_lin)
 
     def gradient(self, x: np.ndarray, p: np.ndarray) -> tuple[float, np.ndarray]:
+        return self._gradient(self._knots("gradient", x, p), x, p)
+
+    def _gradient(self, out: dict[str, np.ndarray], x: np.ndarray, p: np.ndarray) -> tuple[float, np.ndarray]:
+        """`gradient` from the gradient map's outputs at (x, p)."""
         nd, (K, npos) = self.n_dof, self.B.shape
-        out = self._knots("gradient", x, p)
         r, J = out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, nd)  # J_k = d r_k / d q_k
         r_lin = self.linear_residual(x, p)
         g = 2 * (self.Lt @ r_lin)
@@ -120,11 +123,15 @@ class KnotDerivatives:
 
     def hessian(self, x: np.ndarray, p: np.ndarray, taken: tuple | None = None) -> np.ndarray:
         """Hessian values on the pattern (rows, cols), or only at the nonzeros `taken` (`taking`) stands for."""
+        return self._hessian(None if self.exact else self._knots("gradient", x, p), x, p, taken)
+
+    def _hessian(self, knots: dict[str, np.ndarray] | None, x, p, taken: tuple | None) -> np.ndarray:
+        """`hessian` from the gradient map's outputs at (x, p) (Gauss-Newton; None when exact)."""
         K = self.B.shape[0]
-        if self.exact:
+        if knots is None:
             H_k = self._knots("hessian", x, p)["o0"].reshape(K, -1)
         else:
-            J = self._knots("gradient", x, p)["o1"].reshape(K, self.m, self.n_dof)
+            J = knots["o1"].reshape(K, self.m, self.n_dof)
             H_k = 2 * np.matmul(J.transpose(0, 2, 1), J).reshape(K, -1)
         if taken is None:
             return self.lin_vals + self.assemble(H_k)
@@ -140,8 +147,10 @@ class KnotDerivatives:
     def evaluate(
         self, x: np.ndarray, p: np.ndarray, taken: tuple | None = None
     ) -> tuple[float, np.ndarray, np.ndarray]:
-        """(f, gradient, Hessian values), those at the nonzeros `taken` (`taking`) stands for only if given."""
-        return *self.gradient(x, p), self.hessian(x, p, taken)
+        """(f, gradient, Hessian values), those at the nonzeros `taken` (`taking`) stands for only if given: one
+        evaluation of the per-knot map serves all three."""
+        out = self._knots("gradient", x, p)
+        return *self._gradient(out, x, p), self._hessian(None if self.exact else out, x, p, taken)
 
     def __call__(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Dense (H, gradient)."""

@@ -19,7 +19,8 @@ from harmony_cli.study.spec import StudySpec
 KEY_CHARS = 16
 
 
-NOT_IN_A_RUN = ("cli.py", "console.py", "commands", "study/report.py")  # what prints or reports, not what runs
+# what prints or reports, not what runs; the shipped scenarios count through the resolved scenario (run_key)
+NOT_IN_A_RUN = ("cli.py", "console.py", "commands", "study/report.py", "examples")
 
 
 @cache
