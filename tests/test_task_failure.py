@@ -164,3 +164,13 @@ def test_a_drop_says_when_the_pads_crushed_the_box_and_what_else_of_the_robot_it
     steps["box_on_robot_N"] = 0.0
     reason = task_failure(task, steps)["reason"]
     assert "pressed" not in reason
+
+
+def test_a_box_on_its_goal_in_a_run_that_failed_otherwise_is_not_called_off_goal():
+    """A box 1 cm from its goal (within the 5 cm it may be) in a run whose carry never reached its goal: the phase is
+    the failure; a box 6 cm off is off goal."""
+    steps = _steps([1.165] * 3, [True] * 3)
+    phases = [{"name": "carry", "start_s": 0.0, "completed_s": None, "final_goal_error_m": 0.2}]
+    task = {"success": False, "box_dropped": False, "clear_of_obstacles": True, "box_upright": True, "phases": phases}
+    assert task_failure(task | {"box_goal_error_m": 0.01}, steps)["category"] == "phase timeout"
+    assert task_failure(task | {"box_goal_error_m": 0.06}, steps)["category"] == "box off goal"

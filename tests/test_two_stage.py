@@ -69,6 +69,12 @@ def test_the_two_engines_lift_the_box_to_the_same_place_within_a_centimetre(lift
     assert np.linalg.norm(ends["pybullet"] - ends["mujoco"]) < 0.01, ends
 
 
+def test_a_lift_a_box_task_without_a_goal_succeeds_when_every_phase_reached_its_goal_with_the_box_held(lift_run):
+    task = json.loads((lift_run / "summary.json").read_text())["task"]
+    assert task["box_goal_error_m"] is None and all(p["completed_s"] is not None for p in task["phases"])
+    assert task["success"] and task["failure"] is None, task
+
+
 def test_the_box_is_lifted_by_friction_alone_and_never_dropped(lift_run):
     steps = pd.read_csv(lift_run / "steps.csv")
     assert not steps["dropped"].any()

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from harmony_cli.report.task_failure import fell_at, task_failure
+from harmony_cli.report.task_failure import GOAL_TOLERANCE, fell_at, task_failure
 from harmony_cli.report.touches import touches
 from harmony_cli.tasks.schedule import REACHED
 
@@ -46,7 +46,6 @@ def summarise(steps: pd.DataFrame, hands: list[str]) -> dict:
     }
 
 
-GOAL_TOLERANCE = 0.05  # [m] box centre from its goal
 UPRIGHT_DEG = 10.0
 
 
@@ -86,6 +85,8 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
         dropped = bool(steps["dropped"].any()) or fell is not None  # out of the hands, or off the tables
         error = float(np.linalg.norm(final - np.asarray(box.goal))) if box.goal else None
         upright = float(steps["box_tilt_deg"].iloc[-1]) < UPRIGHT_DEG
+        # a box with a goal must end there; one without (a lift) must have every phase's goal reached
+        placed = error <= GOAL_TOLERANCE if error is not None else all(p["completed_s"] is not None for p in phases)
         out |= {
             "grip_off_square_deg": first_held(steps, "box_off_square_deg"),
             "grip_shear_m": first_held(steps, "grip_shear_m"),
@@ -94,14 +95,7 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
             "box_upright": upright,
             "box_dropped": dropped,
             "box_fell_s": fell,
-            "success": bool(
-                error is not None
-                and error <= GOAL_TOLERANCE
-                and upright
-                and not dropped
-                and untouched
-                and not out["timed_out_phases"]
-            ),
+            "success": bool(placed and upright and not dropped and untouched and not out["timed_out_phases"]),
         }
     if "success" in out:
         out["failure"] = task_failure(out, steps)

@@ -222,6 +222,14 @@ def _solves(task: dict, steps: pd.DataFrame) -> str:
     return f"{task.get('planner_failures', 0)} planner and {whole_body} whole-body MPC solves failed"
 
 
+GOAL_TOLERANCE = 0.05  # [m] box centre from its goal: a box task with a goal succeeds only within it
+
+
+def _off_goal_applies(task: dict) -> bool:
+    error = task.get("box_goal_error_m")
+    return error is not None and error > GOAL_TOLERANCE
+
+
 Reason = Callable[[dict, pd.DataFrame], str]
 When = Callable[[dict, pd.DataFrame], float | None]  # when it happened [s]; None: at the end of the run
 
@@ -237,7 +245,7 @@ FAILURES: tuple[tuple[str, Callable[[dict], bool], Reason, When], ...] = (
     ("collision", _collided, _collision, _collision_s),
     ("box tipped", lambda t: t.get("box_upright") is False, _tipped, _at_end),
     ("stalled", lambda t: any(_gave_up(p) for p in t.get("phases", [])), _stalled, _stalled_s),
-    ("box off goal", lambda t: t.get("box_goal_error_m") is not None, _off_goal, _at_end),
+    ("box off goal", _off_goal_applies, _off_goal, _at_end),
     ("phase timeout", lambda t: any(p.get("completed_s") is None for p in t.get("phases", [])), _timeout, _at_end),
     ("solver failures", lambda t: t.get("all_solves_succeeded") is False, _solves, _at_end),
 )
