@@ -5,6 +5,7 @@ lift cut to 0.4 s (studies/smoke_box_lift.yaml)."""
 from __future__ import annotations
 
 import json
+import shlex
 import signal
 import subprocess
 import sys
@@ -26,6 +27,7 @@ from harmony_cli.scenario import ScenarioError, load_scenario
 from harmony_cli.study.intervals import wilson
 from harmony_cli.study.plan import plan_runs
 from harmony_cli.study.report import refusal_kind, write_report
+from harmony_cli.study.run_again import run_again
 from harmony_cli.study.runner import Options, plan_study, run_study
 from harmony_cli.study.sampling import Sampler
 from harmony_cli.study.scene_kind import COLUMN as SCENE_KIND
@@ -183,8 +185,9 @@ def test_sigterm_to_a_study_ends_its_runs_cleanly_keeps_the_table_and_a_rerun_is
     assert len(plan_study(path, Options(out=out, progress=False, rerun=("interrupted",))).todo) == 2
 
 
-def test_the_report_gives_each_run_that_did_not_succeed_its_replay_command(tmp_path):
-    """report.md lists every run that did not succeed with `harmony view <its run directory>`, and no other."""
+def test_the_report_gives_each_run_that_did_not_succeed_a_command_that_runs_it_again(tmp_path):
+    """report.md lists every run that did not succeed with a `harmony run` command, and no other: from its
+    overrides where the run directory has them, else its resolved scenario."""
     table = pd.DataFrame(
         {
             "point": ["base"] * 3,
@@ -197,10 +200,28 @@ def test_the_report_gives_each_run_that_did_not_succeed_its_replay_command(tmp_p
         }
     )
     table.to_parquet(tmp_path / TABLE)
+    (tmp_path / "runs/s1").mkdir(parents=True)
+    drawn = {"scenario": str(tmp_path / "base.yaml"), "overrides": ["world.box.mass=1.2"]}
+    (tmp_path / "runs/s1/overrides.yaml").write_text(json.dumps(drawn))
     write_report(tmp_path)
     report = (tmp_path / "report.md").read_text()
-    assert f"`harmony view {tmp_path / 'runs/s1'}`" in report and f"`harmony view {tmp_path / 'runs/s2'}`" in report
-    assert f"harmony view {tmp_path / 'runs/s0'}`" not in report
+    assert f"`harmony run {tmp_path / 'base.yaml'} --set world.box.mass=1.2 --out {tmp_path / 'runs/s1'}`" in report
+    assert f"`harmony run {tmp_path / 'runs/s2/scenario.resolved.yaml'}`" in report
+    assert str(tmp_path / "runs/s0") not in report
+
+
+def test_the_reports_command_runs_a_draw_again_step_for_step_into_its_run_directory(tmp_path):
+    first = run_study(STUDY, Options(out=tmp_path / "study", samples=1, progress=False, plots="none"))
+    assert first.ran == 1
+    run_dir = Path(pd.read_parquet(tmp_path / "study" / TABLE)["run_dir"][0])
+    words = shlex.split(run_again(run_dir))
+    assert words[:2] == ["harmony", "run"] and words[-2:] == ["--out", str(run_dir)]
+    again = tmp_path / "again"
+    result = CliRunner().invoke(app, [*words[1:-1], str(again), "--quiet"])
+    assert result.exit_code in (0, 1), result.output  # the smoke study's 0.4 s runs end before their phases do
+    original, repeated = (pd.read_csv(d / "steps.csv") for d in (run_dir, again))
+    same = [c for c in original.columns if not any(t in c for t in TIMING)]
+    pd.testing.assert_frame_equal(original[same], repeated[same])
 
 
 def test_a_run_stopped_after_its_box_fell_counts_as_dropped_and_says_both():

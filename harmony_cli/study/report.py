@@ -23,6 +23,7 @@ from harmony_cli.study.claims import claim_lines
 from harmony_cli.study.disagreement import disagreement_lines
 from harmony_cli.study.draw_map import draw_map
 from harmony_cli.study.intervals import wilson
+from harmony_cli.study.run_again import run_again
 from harmony_cli.study.scene_kind import COLUMN as SCENE_KIND
 from harmony_cli.study.spec import Claim
 from harmony_cli.study.table import IMPOSSIBLE, SUCCESS, SUCCESS_LATE, TABLE
@@ -205,11 +206,11 @@ def write_report(study: Path) -> list[Path]:
     failed = table[~table["outcome"].isin([SUCCESS, SUCCESS_LATE])]
     lines += ["", f"## Runs that did not succeed ({len(failed)})", ""]
     if len(failed):
-        header = "| sample | grid point | outcome | reason | look at it | run it again |"
-        lines += [header, "|---:|---|---|---|---|---|"]
+        lines += ["Each command runs the draw again into its run directory; `harmony view` it there to replay it.", ""]
+        lines += ["| sample | grid point | outcome | reason | run it again |", "|---:|---|---|---|---|"]
         lines += [
             f"| {r['sample']} | {r['point']} | {r['outcome']} | {markdown_cell(r['reason'])} | "
-            f"`harmony view {r['run_dir']}` | `harmony run {r['run_dir']}/scenario.resolved.yaml` |"
+            f"`{run_again(r['run_dir'])}` |"
             for _, r in failed.sort_values(["sample", "point"]).iterrows()
         ]
     figures = [_plot_outcomes(counts, study), _plot_metrics(table, study)]
