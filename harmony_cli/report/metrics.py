@@ -76,8 +76,8 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
     solved = out["planner_failures"] == 0 and bool(steps["success"].astype(bool).all())
     out |= {"clear_of_obstacles": clear, "contact_free": untouched, "all_solves_succeeded": solved}
     box = scenario.world.box
+    completed = all(p["completed_s"] is not None for p in phases)  # every phase's goal reached
     if box is None:  # success: every phase's goal reached, never touching an obstacle, no failed solve
-        completed = all(p["completed_s"] is not None for p in phases)
         out["success"] = bool(untouched and solved and completed and not out["timed_out_phases"])
     elif "box_x" in steps:
         final = steps[["box_x", "box_y", "box_z"]].iloc[-1].to_numpy()
@@ -86,7 +86,7 @@ def task_outcome(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) -> d
         error = float(np.linalg.norm(final - np.asarray(box.goal))) if box.goal else None
         upright = float(steps["box_tilt_deg"].iloc[-1]) < UPRIGHT_DEG
         # a box with a goal must end there; one without (a lift) must have every phase's goal reached
-        placed = error <= GOAL_TOLERANCE if error is not None else all(p["completed_s"] is not None for p in phases)
+        placed = error <= GOAL_TOLERANCE if error is not None else completed
         out |= {
             "grip_off_square_deg": first_held(steps, "box_off_square_deg"),
             "grip_shear_m": first_held(steps, "grip_shear_m"),
