@@ -15,6 +15,7 @@ import yaml
 from harmony_cli.robot.prepare import AUTO
 from harmony_cli.scenario import Scenario, robot_of, scenario_yaml
 
+OVERRIDES = "overrides.yaml"  # a run's scenario file and its --set overrides, as given
 PACKAGES = ("harmony-cli", "casadi", "pyoptas", "pin", "pybullet", "mujoco", "numpy", "pydantic", "pandas")
 
 
@@ -33,7 +34,17 @@ def write_inputs(out: Path, path: Path, overrides: list[str], scenario: Scenario
         mount = robot_of(scenario, path.parent).mount
         resolved["robot"]["mount"] = None if mount is None else {"xyz": mount[0], "rpy_deg": mount[1]}
     (out / "scenario.resolved.yaml").write_text(yaml.safe_dump(resolved, sort_keys=False))
-    (out / "overrides.yaml").write_text(yaml.safe_dump({"scenario": str(path), "overrides": list(overrides)}))
+    (out / OVERRIDES).write_text(yaml.safe_dump({"scenario": str(path), "overrides": list(overrides)}))
+
+
+def read_inputs(out: Path) -> tuple[Path, list[str]] | None:
+    """The scenario file and the `--set` overrides a run in `out` was made from (write_inputs), or None when its
+    overrides.yaml is missing."""
+    written = out / OVERRIDES
+    if not written.is_file():
+        return None
+    recorded = yaml.safe_load(written.read_text())
+    return Path(recorded["scenario"]), list(recorded.get("overrides", []))
 
 
 def _git_sha() -> str:

@@ -8,21 +8,20 @@ import os
 import shlex
 from pathlib import Path
 
-import yaml
+from harmony_cli.experiment.run_dir import read_inputs
 
 
 def run_again(run_dir: str | Path) -> str:
     """`harmony run BASE --set KEY=VALUE ... --out RUN_DIR` for the run in `run_dir` (the base scenario relative to
     the working directory where it lies under it); the resolved scenario's command where overrides.yaml is gone."""
     run_dir = Path(run_dir)
-    written = run_dir / "overrides.yaml"
-    if not written.is_file():
+    inputs = read_inputs(run_dir)
+    if inputs is None:
         return shlex.join(["harmony", "run", str(run_dir / "scenario.resolved.yaml")])
-    recorded = yaml.safe_load(written.read_text())
-    scenario = Path(recorded["scenario"])
+    scenario, overrides = inputs
     if scenario.is_absolute() and scenario.is_relative_to(Path.cwd()):
         scenario = Path(os.path.relpath(scenario))
     words = ["harmony", "run", str(scenario)]
-    for item in recorded.get("overrides", []):
+    for item in overrides:
         words += ["--set", item]
     return shlex.join([*words, "--out", str(run_dir)])
