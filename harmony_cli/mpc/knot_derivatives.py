@@ -30,12 +30,15 @@ class KnotDerivatives:
         q, ref = (cs.SX.sym(name, problem.task_residual.size1_in(i)) for i, name in enumerate(("q", "ref")))
         r = problem.task_residual(q, ref)
         self.n_dof, self.m, self.n_vars, nd = q.numel(), r.numel(), n, q.numel()
+        J = cs.jacobian(r, q)
         knot_maps = {
             "value": [r],
-            "gradient": [r, cs.densify(cs.jacobian(r, q).T)],
+            "gradient": [r, cs.densify(J.T)],  # the native oracle's (native_oracle.py)
+            # r, J^T r and J^T J per knot: the normal equations' parts in C, where J's zeros cost nothing
+            "normal": [r, cs.densify(cs.mtimes(J.T, r)), cs.densify(cs.mtimes(J.T, J))],
             "hessian": [cs.densify(cs.hessian(cs.sumsqr(r), q)[0])],
         }
-        # line-search trial points need f only, gradients r and J; the exact per-knot Hessians cost the most
+        # line-search trial points need f only, gradients r, J^T r and J^T J; the exact per-knot Hessians cost the most
         self.knot_functions = {
             kind: cs.Function(f"harmony_{kind}", [q, ref], outs).map(K)
             for kind, outs in knot_maps.items()
@@ -106,16 +109,16 @@ class KnotDerivatives:
         return float(r @ r + r_lin @ r_lin)
 
     def gradient(self, x: np.ndarray, p: np.ndarray) -> tuple[float, np.ndarray]:
-        return self._gradient(self._knots("gradient", x, p), x, p)
+        return self._gradient(self._knots("normal", x, p), x, p)
 
     def _gradient(self, out: dict[str, np.ndarray], x: np.ndarray, p: np.ndarray) -> tuple[float, np.ndarray]:
-        """`gradient` from the gradient map's outputs at (x, p)."""
+        """`gradient` from the normal map's outputs at (x, p)."""
         nd, (K, npos) = self.n_dof, self.B.shape
-        r, J = out["o0"].reshape(K, self.m), out["o1"].reshape(K, self.m, nd)  # J_k = d r_k / d q_k
+        r, Jr = out["o0"], out["o1"].reshape(K, nd)  # J_k^T r_k, J_k = d r_k / d q_k
         r_lin = self.linear_residual(x, p)
         g = 2 * (self.Lt @ r_lin)
-        g[: nd * npos] += 2 * (self.B.T @ np.einsum("kmi,km->ki", J, r)).ravel()
-        return float(r.ravel() @ r.ravel() + r_lin @ r_lin), g
+        g[: nd * npos] += 2 * (self.B.T @ Jr).ravel()
+        return float(r @ r + r_lin @ r_lin), g
 
     def taking(self, nonzeros: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """What `hessian` needs to give only the pattern's `nonzeros` (indices into it): made once per subset."""
@@ -123,16 +126,15 @@ class KnotDerivatives:
 
     def hessian(self, x: np.ndarray, p: np.ndarray, taken: tuple | None = None) -> np.ndarray:
         """Hessian values on the pattern (rows, cols), or only at the nonzeros `taken` (`taking`) stands for."""
-        return self._hessian(None if self.exact else self._knots("gradient", x, p), x, p, taken)
+        return self._hessian(None if self.exact else self._knots("normal", x, p), x, p, taken)
 
     def _hessian(self, knots: dict[str, np.ndarray] | None, x, p, taken: tuple | None) -> np.ndarray:
-        """`hessian` from the gradient map's outputs at (x, p) (Gauss-Newton; None when exact)."""
+        """`hessian` from the normal map's outputs at (x, p) (Gauss-Newton; None when exact)."""
         K = self.B.shape[0]
         if knots is None:
             H_k = self._knots("hessian", x, p)["o0"].reshape(K, -1)
         else:
-            J = knots["o1"].reshape(K, self.m, self.n_dof)
-            H_k = 2 * np.matmul(J.transpose(0, 2, 1), J).reshape(K, -1)
+            H_k = 2 * knots["o2"].reshape(K, -1)  # J_k^T J_k, symmetric: its column-major order is its row-major
         if taken is None:
             return self.lin_vals + self.assemble(H_k)
         index, linear = taken
@@ -149,7 +151,7 @@ class KnotDerivatives:
     ) -> tuple[float, np.ndarray, np.ndarray]:
         """(f, gradient, Hessian values), those at the nonzeros `taken` (`taking`) stands for only if given: one
         evaluation of the per-knot map serves all three."""
-        out = self._knots("gradient", x, p)
+        out = self._knots("normal", x, p)
         return *self._gradient(out, x, p), self._hessian(None if self.exact else out, x, p, taken)
 
     def __call__(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -183,7 +183,7 @@ def native_oracle(model: KnotDerivatives, n_p: int) -> cs.Function | None:
 
 
 def _native_oracle(model: KnotDerivatives, n_p: int) -> cs.Function | None:
-    maps = model.knot_functions
+    maps = {kind: f for kind, f in model.knot_functions.items() if kind != "normal"}  # its own assembly in C
     cg = cs.CodeGenerator("harmony_oracle", {"with_header": False})
     for f in maps.values():
         cg.add(f)
