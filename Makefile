@@ -4,6 +4,8 @@ VENV := .venv
 STAMP := $(VENV)/.installed
 HARMONY := $(VENV)/bin/harmony
 TABLE1 := scenarios/paper/table1_s_shape.yaml
+# results copied with their provenance entries (make lint checks every committed result's)
+COPY := $(VENV)/bin/python tools/copy_results.py
 
 .PHONY: install quickstart lint test test-slow bench reproduce-paper engines robots-unedited study study-validation claims docs clean
 
@@ -23,7 +25,8 @@ quickstart: $(STAMP)
 	$(HARMONY) run scenarios/paper/pick_and_carry.yaml
 
 # ruff (lint + format), mypy, import contracts (import-linter), module/function/README sizes, docs tables in sync,
-# docs that read as results not a diary (tools/check_docs.py), the docs site (mkdocs.yml) with every link resolved
+# docs that read as results not a diary (tools/check_docs.py), committed results made by the code as it is
+# (tools/check_results.py), the docs site (mkdocs.yml) with every link resolved
 lint: $(STAMP)
 	$(VENV)/bin/ruff check harmony_cli tests tools
 	$(VENV)/bin/ruff format --check harmony_cli tests tools
@@ -32,6 +35,7 @@ lint: $(STAMP)
 	$(VENV)/bin/python tools/check_sizes.py harmony_cli
 	$(VENV)/bin/python tools/render_docs.py --check
 	$(VENV)/bin/python tools/check_docs.py
+	$(VENV)/bin/python tools/check_results.py
 	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --quiet
 
 # the tables in docs/*.md from the committed result files
@@ -75,7 +79,7 @@ reproduce-paper: $(STAMP)
 		--set name=dynamic_obstacle_static --out results/paper/runs/dynamic_obstacle_static
 	$(HARMONY) compare scenarios/robots/s_shape.yaml --grid robot.preset=$(subst $(space),$(comma),$(ROBOTS)) \
 		--jobs 1 --out results/paper/robots --name robots_s_shape
-	cp results/paper/robots/robots_s_shape.md results/paper/robots/robots_s_shape.csv results/paper/
+	$(COPY) results/paper/robots/robots_s_shape.md results/paper/robots/robots_s_shape.csv results/paper/
 	for r in $(ROBOTS); do $(HARMONY) run scenarios/robots/box_carry.yaml --set robot.preset=$$r \
 		--set name=$${r}_box_carry --out results/paper/runs/$${r}_box_carry --video || exit 1; done
 	$(HARMONY) experiments $(addprefix results/paper/runs/,$(EXPERIMENTS) $(addsuffix _box_carry,$(ROBOTS))) \
@@ -84,11 +88,11 @@ reproduce-paper: $(STAMP)
 		--out results/paper --name dynamic_obstacle
 	$(HARMONY) paths $(addprefix results/paper/runs/,dynamic_obstacle dynamic_obstacle_static) \
 		--out results/paper/dynamic_obstacle_paths.png
-	cp results/paper/runs/pick_and_carry/force_tracking.png results/paper/pick_and_carry_force.png
+	$(COPY) results/paper/runs/pick_and_carry/force_tracking.png results/paper/pick_and_carry_force.png
 	$(HARMONY) compare scenarios/paper/push_recovery.yaml --grid admittance.enabled=true,false --jobs 1 \
 		--out results/paper/push_recovery --name push_recovery
-	cp results/paper/push_recovery/push_recovery.md results/paper/push_recovery/push_recovery.csv results/paper/
-	for a in true false; do cp results/paper/push_recovery/runs/enabled-$$a/push_left_hand.png \
+	$(COPY) results/paper/push_recovery/push_recovery.md results/paper/push_recovery/push_recovery.csv results/paper/
+	for a in true false; do $(COPY) results/paper/push_recovery/runs/enabled-$$a/push_left_hand.png \
 		results/paper/push_recovery_admittance_$$a.png; done
 	$(VENV)/bin/python tools/render_docs.py
 

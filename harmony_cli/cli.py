@@ -214,6 +214,7 @@ def paths(
     """Top-down paths of several runs of one scene overlaid: base, hands, box and each run's moving obstacles."""
     import pandas as pd
 
+    from harmony_cli.provenance import Made, record
     from harmony_cli.report.scene_plots import plot_paths_compared
 
     missing = [str(r) for r in runs if not (r / "steps.csv").exists()]
@@ -228,6 +229,7 @@ def paths(
         fail(str(exc))
     out.parent.mkdir(parents=True, exist_ok=True)
     typer.echo(plot_paths_compared(out, loaded, title))
+    record([out], Made.from_runs(runs))
 
 
 EXPERIMENTS = ("pick_and_carry", "static_obstacles", "narrow_passage", "dynamic_obstacle")  # the paper's two-stage

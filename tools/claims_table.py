@@ -8,7 +8,9 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from harmony_cli.provenance import Made, made_of, record
 from harmony_cli.study.claims import summary_lines
+from harmony_cli.study.table import TABLE
 
 
 def main() -> int:
@@ -17,6 +19,7 @@ def main() -> int:
         return 2
     out, studies = Path(sys.argv[1]), [Path(p) for p in sys.argv[2:]]
     out.write_text("\n".join(summary_lines(studies)) + "\n")
+    record([out], Made.joined(m for s in studies if (m := made_of(s / TABLE)) is not None))
     print(out)
     return 0
 

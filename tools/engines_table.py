@@ -11,6 +11,8 @@ import json
 import math
 from pathlib import Path
 
+from harmony_cli.provenance import Made, record
+
 COLUMNS = (  # (heading, value from a run's summary)
     ("outcome", lambda s: _outcome(s)),
     ("box goal error [cm]", lambda s: _cm(s.get("task", {}).get("box_goal_error_m"))),
@@ -76,6 +78,7 @@ def main() -> int:
     args = parser.parse_args()
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(table(args.runs))
+    record([args.out], Made.from_runs(p.parent for p in sorted(args.runs.glob("*/*/meta.json"))))
     print(args.out)
     return 0
 

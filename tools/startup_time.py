@@ -29,7 +29,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from harmony_cli.experiment.run_dir import cpu_model
+from harmony_cli.provenance import cpu_model
 
 
 def first_step_clock(out: Path) -> float | None:

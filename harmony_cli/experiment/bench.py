@@ -19,6 +19,7 @@ from harmony_cli.experiment.run_dir import machine_meta
 from harmony_cli.mpc.knot_params import hand_rows
 from harmony_cli.mpc.structures import forget_structures
 from harmony_cli.mpc.wholebody import WholeBodyMPC
+from harmony_cli.provenance import Made, record
 from harmony_cli.report.metrics import time_stats_ms
 from harmony_cli.robot.model import load_robot
 from harmony_cli.scenario import load_scenario
@@ -132,4 +133,5 @@ def run_bench(
         markdown = "| " + " | ".join(columns) + " |\n|" + "---|" * len(columns) + "\n"
         markdown += "".join("| " + " | ".join(row) + " |\n" for row in rows)
         out.with_suffix(".md").write_text(f"# {title}\n\n{markdown}\n{machine}\n")
+        record([out, out.with_suffix(".md")], Made.here())
     return report

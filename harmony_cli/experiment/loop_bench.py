@@ -15,6 +15,7 @@ from rich.console import Console
 from rich.table import Table
 
 from harmony_cli.experiment.run_dir import machine_meta
+from harmony_cli.provenance import Made, record
 from harmony_cli.report.timing_plots import PARTS as STEP_PARTS
 
 PARTS = {"loop_ms": "loop (planner + whole-body MPC)"} | STEP_PARTS  # the loop, then steps.csv's breakdown
@@ -129,4 +130,5 @@ def run_loop_bench(
     if out:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json.dumps(result, indent=2))
+        record([out], Made.here())
     return result

@@ -1,17 +1,17 @@
 """A run directory describes itself: the resolved scenario (re-runnable as is), the overrides that made it, and
-meta.json (package versions, git SHA, CPU, cores, concurrency, seed, the solver paths that ran)."""
+meta.json (package versions, code version, git SHA, CPU, cores, concurrency, seed, the solver paths that ran)."""
 
 from __future__ import annotations
 
 import os
 import platform
-import subprocess
 from datetime import datetime
 from importlib import metadata
 from pathlib import Path
 
 import yaml
 
+from harmony_cli.provenance import code_version, cpu_model, git_sha
 from harmony_cli.robot.prepare import AUTO
 from harmony_cli.scenario import Scenario, robot_of, scenario_yaml
 
@@ -47,29 +47,6 @@ def read_inputs(out: Path) -> tuple[Path, list[str]] | None:
     return Path(recorded["scenario"]), list(recorded.get("overrides", []))
 
 
-def _git_sha() -> str:
-    here = Path(__file__).resolve().parent
-    try:
-        sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True).stdout.strip()
-        dirty = subprocess.run(
-            ["git", "status", "--porcelain", "--untracked-files=no"], cwd=here, capture_output=True, text=True
-        ).stdout.strip()
-        return (sha + ("-dirty" if dirty else "")) or "unknown"
-    except OSError:
-        return "unknown"
-
-
-def cpu_model() -> str:
-    """The CPU's model name (every timing is stated with it)."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
-
-
 def machine_meta(concurrency: int) -> dict:
     versions = {}
     for pkg in PACKAGES:
@@ -80,7 +57,8 @@ def machine_meta(concurrency: int) -> dict:
     return {
         "python": platform.python_version(),
         "packages": versions,
-        "git_sha": _git_sha(),
+        "code_version": code_version(),
+        "git_sha": git_sha(),
         "cpu": cpu_model(),
         "cores": os.cpu_count(),
         "host": platform.node(),

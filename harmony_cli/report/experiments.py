@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from harmony_cli.provenance import Made, record
 from harmony_cli.report.metrics import task_outcome
 from harmony_cli.report.scene_plots import plot_top_down
 from harmony_cli.scenario import load_scenario
@@ -120,4 +121,5 @@ def experiments_report(dirs: list[Path], out: Path, name: str = "experiments") -
         still = _frame(d / "video.mp4", out / f"{label}_frame.png")
         if still:
             written.append(still)
+    record(written, Made.from_runs(dirs))
     return written

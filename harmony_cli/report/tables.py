@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from harmony_cli.provenance import Made, record
 from harmony_cli.report.metrics import baseline_peak
 from harmony_cli.report.plots import plot_comparison
 from harmony_cli.report.text import fmt
@@ -193,4 +194,5 @@ def compare_report(
     if steps:
         hands = [c.removesuffix("_error_m") for c in next(iter(steps.values())).columns if c.endswith("_error_m")]
         paths += plot_comparison(out, steps, hands)
+    record(paths, Made.from_metas(r["meta"] for r in runs))
     return paths

@@ -5,35 +5,17 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, field
-from functools import cache
 from pathlib import Path
 from typing import Any
 
 import yaml
 
-import harmony_cli
+from harmony_cli.provenance import code_version
 from harmony_cli.scenario import Scenario, scenario_yaml
 from harmony_cli.study.sampling import BASE, GridPoint, Sample, Sampler, point_overrides
 from harmony_cli.study.spec import StudySpec
 
 KEY_CHARS = 16
-
-
-# what prints or reports, not what runs; the shipped scenarios count through the resolved scenario (run_key)
-NOT_IN_A_RUN = ("cli.py", "console.py", "commands", "study/report.py", "examples")
-
-
-@cache
-def code_version() -> str:
-    """harmony's version and a hash of the source a run executes (Python files and robot presets): an edit there
-    changes it; one to the command line or the study report does not."""
-    root = Path(harmony_cli.__file__).parent
-    digest = hashlib.sha256()
-    for path in sorted(p for p in root.rglob("*") if p.suffix in (".py", ".yaml", ".urdf") and p.is_file()):
-        name = path.relative_to(root).as_posix()
-        if not any(name == skip or name.startswith(f"{skip}/") for skip in NOT_IN_A_RUN):
-            digest.update(name.encode() + b"\0" + path.read_bytes() + b"\0")
-    return f"{getattr(harmony_cli, '__version__', '0')}+{digest.hexdigest()[:12]}"
 
 
 @dataclass(frozen=True)

@@ -19,10 +19,11 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from harmony_cli.console import warn
 from harmony_cli.experiment.interrupts import RunInterrupted
+from harmony_cli.provenance import Made, code_version, record
 from harmony_cli.scenario import ScenarioError, load_scenario, scenario_yaml
 from harmony_cli.study.execute import ATTEMPTS, Job, commit, end_without_result, ended, run_here
 from harmony_cli.study.lock import study_lock
-from harmony_cli.study.plan import PlannedRun, code_version, plan_runs
+from harmony_cli.study.plan import PlannedRun, plan_runs
 from harmony_cli.study.pool import Workers
 from harmony_cli.study.ray_engine import run_ray
 from harmony_cli.study.sampling import Sampler
@@ -172,6 +173,8 @@ def run_study(path: Path, options: Options) -> StudyOutcome:
         minutes = (time.monotonic() - start) / 60.0
         shutil.rmtree(out / "runs" / ATTEMPTS, ignore_errors=True)  # lost workers' attempts: every run is committed
         table = write_table(list(rows.values()), out / TABLE)
+        made = Made.from_runs(d for d in (out / "runs" / run.name for run in runs) if (d / "meta.json").is_file())
+        record([out / TABLE, out / "study.yaml", out / "base_scenario.yaml"], made)
         _log(out, options, len(todo), minutes)
     return StudyOutcome(out, table, len(todo), len(runs) - len(todo), minutes)
 
