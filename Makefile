@@ -119,7 +119,7 @@ robots-unedited: $(STAMP)
 
 # pick_and_carry over randomised scenes on 2 local jobs (resumable: started again, it runs what is missing): `study`
 # runs the 100 draws for development (dev) in PyBullet; `study-validation` the 200 that are run to report, never to
-# choose between variants, in both physics engines side by side with the draws where they disagree (~75 min); their
+# choose between variants, in both physics engines side by side with the draws where they disagree (1.3-2.5 h); their
 # reports, figures and study.parquet are committed under results/studies/ (the run directories are not)
 study: $(STAMP)
 	$(HARMONY) study studies/pick_and_carry_random.yaml --draws dev --jobs 2
