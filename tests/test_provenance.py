@@ -72,3 +72,36 @@ def test_results_made_by_the_code_as_it_is_pass_the_check(tmp_path):
     table.write_text("x")
     record([table], Made.here())
     assert _check_results().problems([table], code_version()) == []
+
+
+def _study_table(directory: Path) -> Path:
+    import pandas as pd
+
+    from harmony_cli.study.table import TABLE
+
+    table = pd.DataFrame(
+        {
+            "point": ["base"] * 2,
+            "sample": [0, 1],
+            "success": [True, False],
+            "outcome": ["success", "dropped"],
+            "reason": ["", "the box fell"],
+            "resamples": [0, 0],
+            "run_dir": [str(directory / f"runs/s{i}") for i in range(2)],
+        }
+    )
+    table.to_parquet(directory / TABLE)
+    return directory / TABLE
+
+
+def test_a_study_report_takes_its_tables_entry_and_an_unrecorded_table_leaves_it_unrecorded(tmp_path):
+    from harmony_cli.study.report import write_report
+
+    recorded, unrecorded = tmp_path / "recorded", tmp_path / "unrecorded"
+    for directory in (recorded, unrecorded):
+        directory.mkdir()
+        _study_table(directory)
+    old = Made("0.1.0+old", "a", "CPU A", "2026-01-01")
+    record([recorded / "study.parquet"], old)
+    assert all(made_of(path) == old for path in write_report(recorded))
+    assert all(made_of(path) is None for path in write_report(unrecorded))

@@ -17,7 +17,7 @@ import pandas as pd
 import yaml
 
 from harmony_cli.planning.stance import StanceClass
-from harmony_cli.provenance import Made, made_of, record
+from harmony_cli.provenance import made_of, record
 from harmony_cli.report.figure import plt, save
 from harmony_cli.report.text import markdown_cell
 from harmony_cli.study.claims import claim_lines
@@ -224,7 +224,8 @@ def write_report(study: Path) -> list[Path]:
         lines += ["", f"![{drawn.stem}]({drawn.name})"]
     report = study / "report.md"
     report.write_text("\n".join(lines) + "\n")
-    record([report, *figures], made_of(study / TABLE) or Made.here())  # made from the table's runs
+    if (made := made_of(study / TABLE)) is not None:  # made from the table's runs; an unrecorded table stays so
+        record([report, *figures], made)
     return [report, *figures]
 
 
