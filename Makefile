@@ -49,12 +49,14 @@ test-slow: $(STAMP)
 	$(VENV)/bin/pytest -q -m slow
 
 # the paper's claims over distributions and under imperfections (studies/claims_*.yaml, their validation draws);
-# CLAIMS_ON="--ray auto" runs them on a Ray cluster
+# CLAIMS_ON="--ray auto" runs them on a Ray cluster. Every study target resumes: started again after a stop, it runs
+# what is missing and what the stop interrupted (RESUME)
+RESUME := --rerun interrupted
 CLAIMS := claims_table1 claims_admittance claims_moving_obstacle claims_sensing
 CLAIMS_ON ?= --jobs 2
 claims: $(STAMP)
 	for s in $(CLAIMS); do \
-		$(HARMONY) study studies/$$s.yaml --draws validation $(CLAIMS_ON) --out results/claims/$$s || exit 1; done
+		$(HARMONY) study studies/$$s.yaml --draws validation $(CLAIMS_ON) $(RESUME) --out results/claims/$$s || exit 1; done
 	$(VENV)/bin/python tools/claims_table.py results/claims/claims.md $(addprefix results/claims/,$(CLAIMS))
 
 bench: $(STAMP)
@@ -117,15 +119,15 @@ robots-unedited: $(STAMP)
 	$(HARMONY) experiments $(addprefix results/robots_unedited/runs/,$(UNEDITED)) --out results/robots_unedited \
 		--name robots_unedited
 
-# pick_and_carry over randomised scenes on 2 local jobs (resumable: started again, it runs what is missing): `study`
+# pick_and_carry over randomised scenes on 2 local jobs (resumable, RESUME above): `study`
 # runs the 100 draws for development (dev) in PyBullet; `study-validation` the 200 that are run to report, never to
 # choose between variants, in both physics engines side by side with the draws where they disagree (1.3-2.5 h); their
 # reports, figures and study.parquet are committed under results/studies/ (the run directories are not)
 study: $(STAMP)
-	$(HARMONY) study studies/pick_and_carry_random.yaml --draws dev --jobs 2
+	$(HARMONY) study studies/pick_and_carry_random.yaml --draws dev --jobs 2 $(RESUME)
 
 study-validation: $(STAMP)
-	$(HARMONY) study studies/pick_and_carry_random.yaml --draws validation --grid sim.engine=pybullet,mujoco --jobs 2
+	$(HARMONY) study studies/pick_and_carry_random.yaml --draws validation --grid sim.engine=pybullet,mujoco --jobs 2 $(RESUME)
 
 clean:
 	rm -rf results/runs results/compare results/bench results/robots_unedited/runs results/paper/runs results/paper/push_recovery results/paper/robots .pytest_cache .hypothesis
