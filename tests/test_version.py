@@ -5,7 +5,8 @@ import re
 import subprocess
 import sys
 from importlib.metadata import version
-from pathlib import Path
+
+from conftest import ROOT
 
 import harmony_cli
 
@@ -22,6 +23,6 @@ def test_the_installed_metadata_and_harmony_version_give_the_version_the_package
 
 
 def test_the_changelog_has_a_dated_section_for_the_version_the_package_holds():
-    changelog = (Path(harmony_cli.__file__).parents[1] / "CHANGELOG.md").read_text()
+    changelog = (ROOT / "CHANGELOG.md").read_text()
     heading = re.compile(rf"^## \[{re.escape(harmony_cli.__version__)}\] - \d{{4}}-\d{{2}}-\d{{2}}$", re.MULTILINE)
     assert heading.search(changelog), f"CHANGELOG.md has no '## [{harmony_cli.__version__}] - YYYY-MM-DD' section"
