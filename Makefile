@@ -7,7 +7,7 @@ TABLE1 := scenarios/paper/table1_s_shape.yaml
 # results copied with their provenance entries (make lint checks every committed result's)
 COPY := $(VENV)/bin/python tools/copy_results.py
 
-.PHONY: install quickstart lint test test-slow bench reproduce-paper engines robots-unedited study study-validation claims docs clean
+.PHONY: install quickstart lint test test-slow bench reproduce-paper engines robots-unedited study study-validation claims results docs clean
 
 # Ranges live in pyproject.toml; constraints.txt pins the versions every install uses (refresh it with
 # `.venv/bin/pip freeze | grep -v '^-e' > constraints.txt` after a deliberate upgrade).
@@ -128,6 +128,12 @@ study: $(STAMP)
 
 study-validation: $(STAMP)
 	$(HARMONY) study studies/pick_and_carry_random.yaml --draws validation --grid sim.engine=pybullet,mujoco --jobs 2 $(RESUME)
+
+# every committed result made again by the code as it is (what tools/check_results.py asks for after a change to the
+# source a run executes), one target after another on this machine, then the docs' tables; the study targets resume
+# where a stop left them, so `make results` started again after a stop goes on from there
+results: reproduce-paper engines robots-unedited bench study study-validation claims
+	$(MAKE) docs
 
 clean:
 	rm -rf results/runs results/compare results/bench results/robots_unedited/runs results/paper/runs results/paper/push_recovery results/paper/robots .pytest_cache .hypothesis

@@ -105,3 +105,9 @@ def test_a_study_report_takes_its_tables_entry_and_an_unrecorded_table_leaves_it
     record([recorded / "study.parquet"], old)
     assert all(made_of(path) == old for path in write_report(recorded))
     assert all(made_of(path) is None for path in write_report(unrecorded))
+
+
+def test_make_results_runs_every_target_the_check_can_ask_for():
+    asked = {command.removeprefix("make ") for command in _check_results().REMAKE.values()}
+    line = next(line for line in (ROOT / "Makefile").read_text().splitlines() if line.startswith("results:"))
+    assert asked <= set(line.split(":", 1)[1].split())

@@ -56,6 +56,8 @@ def main() -> int:
     lines = problems(committed(root), code_version())
     for line in lines:
         print(line)
+    if len(lines) > 1:
+        print("`make results` makes all of them again, one target after another (it resumes after a stop)")
     return 1 if lines else 0
 
 
