@@ -52,7 +52,13 @@ class GaussNewtonSolver:
 
     @cached_property
     def context(self) -> SolveContext:
-        return SolveContext(self.problem, self.path, None if self.constraints is None else self.constraints.margins)
+        return SolveContext(self.problem, self.path, None if self.constraints is None else self._margins)
+
+    def _margins(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The constraint rows at x for its violation, the far rows only where this solver's bound cannot show
+        them clear (they are then not violated)."""
+        assert self.constraints is not None
+        return self.constraints.margins(x, p, self.far)
 
     def _qp(self, free: np.ndarray):
         """(QP, Reduction, the kept Hessian nonzeros (as KnotDerivatives.taking gives them), their diagonal, how the

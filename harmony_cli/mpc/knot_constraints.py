@@ -45,6 +45,9 @@ class KnotConstraints:
             self._far_code = Compiling(rows.map(K))
         self._h, self._J = np.zeros((K, self.m)), np.zeros((K, self.m, nd))
         self._values = Compiling(cs.Function("harmony_clearance_value", [q, ref], [h]).map(K))  # for `margins`
+        self._near_values = None  # `margins` where a bound shows the far rows clear: the near rows alone
+        if self.far_rows is not None:
+            self._near_values = Compiling(cs.Function("harmony_clearance_near_value", [q, ref], [h[:near]]).map(K))
         self._symbols = q, ref, h
         if curvature:
             self._compiling_curvature  # noqa: B018 - gcc from now on
@@ -67,6 +70,12 @@ class KnotConstraints:
     def value_map(self) -> Buffered:
         """The compiled per-knot rows alone (half the time of `map`: no Jacobian)."""
         return Buffered(self._values.function)
+
+    @cached_property
+    def near_value_map(self) -> Buffered:
+        """The compiled per-knot near rows alone, for `margins` where the far rows cannot be below their bounds."""
+        assert self._near_values is not None
+        return Buffered(self._near_values.function)
 
     @property
     def code_path(self) -> str:
@@ -131,9 +140,19 @@ class KnotConstraints:
             bound.store(q, ref, h[:, split:])
         return h, J, True
 
-    def margins(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(h at knots >= 1, lower bounds), without the Jacobian (its own map: half the time)."""
-        return self._split(self.value_map(i0=self._at_knots(x), i1=p)["o0"].reshape(self.B.shape[0], self.m))
+    def margins(self, x: np.ndarray, p: np.ndarray, bound: FarBound | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(h at knots >= 1, lower bounds), without the Jacobian (its own map: half the time). Where `bound` shows
+        the far rows >= 0 at every knot (knot 0's too: their lower bounds are then 0), they read +inf: below their
+        bounds they are not, which is all a violation asks of them."""
+        K = self.B.shape[0]
+        if bound is not None and self._near_values is not None:
+            q, ref = self.knots(x, p)
+            if bound.clear(q, ref, np.zeros_like(q)):
+                h = np.full((K, self.m), np.inf)
+                h[:, : self.split] = self.near_value_map(i0=q, i1=p)["o0"].reshape(K, self.split)
+                h[0, self.split :] = 0.0  # lower bounds min(0, h(q_0)) of rows >= 0: 0
+                return self._split(h)
+        return self._split(self.value_map(i0=self._at_knots(x), i1=p)["o0"].reshape(K, self.m))
 
     def evaluate(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(h at knots >= 1, lower bounds, C: n_rows x n_vars dense)."""
