@@ -6,7 +6,7 @@ import importlib.util
 import json
 from pathlib import Path
 
-from harmony_cli.provenance import FILE, Made, code_version, copy, made_of, record
+from harmony_cli.provenance import FILE, Made, code_version, copy, cpu_model, made_of, record
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -111,3 +111,15 @@ def test_make_results_runs_every_target_the_check_can_ask_for():
     asked = {command.removeprefix("make ") for command in _check_results().REMAKE.values()}
     line = next(line for line in (ROOT / "Makefile").read_text().splitlines() if line.startswith("results:"))
     assert asked <= set(line.split(":", 1)[1].split())
+
+
+def test_cpu_string_tells_apart_two_cpus_that_share_a_model_name(tmp_path):
+    def cpuinfo(family: int, model: int) -> Path:
+        path = tmp_path / f"cpuinfo_{family}_{model}"
+        fields = {"processor": 0, "cpu family": family, "model": model, "model name": "AMD EPYC", "stepping": 1}
+        path.write_text("".join(f"{key}\t: {value}\n" for key, value in fields.items()))
+        return path
+
+    older, newer = cpu_model(cpuinfo(25, 17)), cpu_model(cpuinfo(26, 2))
+    assert older.startswith("AMD EPYC") and newer.startswith("AMD EPYC")
+    assert older != newer
