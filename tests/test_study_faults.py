@@ -197,6 +197,17 @@ def test_a_run_directory_without_a_whole_summary_is_run_again_not_reported(tmp_p
     assert json.loads(broken.read_text())["status"] == "completed"
 
 
+def test_a_study_whose_table_cannot_be_written_ends_in_one_line_naming_the_file_with_exit_code_1(tmp_path):
+    study, out = _study(tmp_path, 0.4, 1), tmp_path / "out"
+    (out / f"{TABLE}.part").mkdir(parents=True)  # a path in the way of the table's write, as a full disk would be
+    done = subprocess.run(
+        [str(HARMONY), "study", str(study), "--out", str(out), "--quiet"], capture_output=True, text=True, timeout=300
+    )
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 1 and len(lines) == 1, done.stderr
+    assert f"{TABLE}.part" in lines[0] and "Is a directory" in lines[0] and "Traceback" not in done.stderr
+
+
 @pytest.mark.slow  # ~2 min: a two-node Ray cluster on this machine
 def test_a_ray_node_lost_mid_study_leaves_every_row_once_and_the_rows_of_an_undisturbed_run(tmp_path):
     ray = pytest.importorskip("ray")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import typer
@@ -46,8 +48,9 @@ def study(
         if study_dir is None or not (study_dir / "study.parquet").is_file():
             fail(f"study report: {str(study_dir)!r} is not a study directory (no study.parquet in it)")
             return
-        for path in write_report(study_dir):
-            typer.echo(literal(str(path)))
+        with _unwritable("study report"):
+            for path in write_report(study_dir):
+                typer.echo(literal(str(path)))
         return
     if study_dir is not None:
         fail(f"study: unexpected argument {str(study_dir)!r}; `harmony study STUDY.yaml` or `harmony study report DIR`")
@@ -55,18 +58,34 @@ def study(
         fail(f"--plots: {plots!r} is not valid; choose one of: {', '.join(PLOTS)}")
     reruns = tuple(r for r in rerun.split(",") if r)
     options = Options(out, jobs, ray, draws, seed, samples, reruns, plots, not quiet, tuple(grid), run_timeout)
+    with _unwritable("study"):
+        try:
+            outcome = run_study(Path(target), options)
+        except ScenarioError as exc:
+            fail(str(exc))
+        except RunInterrupted as exc:
+            say(
+                "interrupted:",
+                "yellow",
+                f"{exc.signal_name}; the runs so far and study.parquet are in {options.out or 'results/studies'}",
+            )
+            raise typer.Exit(exc.exit_code) from None
+        _tell(outcome)
+
+
+@contextmanager
+def _unwritable(command: str) -> Iterator[None]:
+    """A file the study cannot write or read (a full disk, a path in the way) ends the command in one line naming the
+    file and why, exit code 1, instead of a traceback: the runs that ended stay in their directories, and the same
+    command with `--rerun interrupted` goes on from them. A lost connection (Ray) is not a file error."""
     try:
-        outcome = run_study(Path(target), options)
-    except ScenarioError as exc:
-        fail(str(exc))
-    except RunInterrupted as exc:
-        say(
-            "interrupted:",
-            "yellow",
-            f"{exc.signal_name}; the runs so far and study.parquet are in {options.out or 'results/studies'}",
-        )
-        raise typer.Exit(exc.exit_code) from None
-    _tell(outcome)
+        yield
+    except (ConnectionError, TimeoutError):
+        raise
+    except OSError as exc:
+        why = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        say("error:", "red", f"{command}: stopped on a file error: {why}; the runs that ended are kept")
+        raise typer.Exit(1) from None
 
 
 def _tell(outcome) -> None:
