@@ -48,7 +48,7 @@ def study(
         if study_dir is None or not (study_dir / "study.parquet").is_file():
             fail(f"study report: {str(study_dir)!r} is not a study directory (no study.parquet in it)")
             return
-        with _unwritable("study report"):
+        with _unwritable("study report", "the study directory is as it was"):
             for path in write_report(study_dir):
                 typer.echo(literal(str(path)))
         return
@@ -58,7 +58,7 @@ def study(
         fail(f"--plots: {plots!r} is not valid; choose one of: {', '.join(PLOTS)}")
     reruns = tuple(r for r in rerun.split(",") if r)
     options = Options(out, jobs, ray, draws, seed, samples, reruns, plots, not quiet, tuple(grid), run_timeout)
-    with _unwritable("study"):
+    with _unwritable("study", "the runs that ended are kept; `--rerun interrupted` goes on from them"):
         try:
             outcome = run_study(Path(target), options)
         except ScenarioError as exc:
@@ -74,17 +74,16 @@ def study(
 
 
 @contextmanager
-def _unwritable(command: str) -> Iterator[None]:
+def _unwritable(command: str, kept: str) -> Iterator[None]:
     """A file the study cannot write or read (a full disk, a path in the way) ends the command in one line naming the
-    file and why, exit code 1, instead of a traceback: the runs that ended stay in their directories, and the same
-    command with `--rerun interrupted` goes on from them. A lost connection (Ray) is not a file error."""
+    file, why, and what is `kept`, exit code 1, instead of a traceback. A lost connection (Ray) is not a file error."""
     try:
         yield
     except (ConnectionError, TimeoutError):
         raise
     except OSError as exc:
         why = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-        say("error:", "red", f"{command}: stopped on a file error: {why}; the runs that ended are kept")
+        say("error:", "red", f"{command}: stopped on a file error: {why}; {kept}")
         raise typer.Exit(1) from None
 
 
