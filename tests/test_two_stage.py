@@ -97,15 +97,17 @@ def test_the_box_is_lifted_by_friction_alone_and_never_dropped(lift_run):
             assert np.percentile(np.abs(np.diff(at[f"{hand}_force_normal_N"])), 95) < 1.0
 
 
-def test_the_pads_friction_carries_the_lifted_box_weight_as_statics_says(lift_run):
-    # PyBullet's contact forces against statics: held still at the lift's end, the pads' friction forces together
-    # carry the box's weight, sum over pads of friction used x mu x normal force = m g (mu = 0.8 x 1.0, m = 0.8 kg)
+def test_the_pads_friction_carries_at_least_the_lifted_box_weight_as_statics_says(lift_run):
+    # the engine's contact forces against statics: held still at the lift's end, the vertical parts of the pads'
+    # friction forces sum to the box's weight (mu = 0.8 x 1.0, m = 0.8 kg). Each pad's friction force (friction used
+    # x mu x normal force) may also have a horizontal part, which the two pads exchange equal and opposite: statics
+    # does not fix it, the contact solver's distribution of the forces does, and it differs between engines and
+    # between CPUs' floating point. So the magnitudes together are the weight or more, never less
     steps = pd.read_csv(lift_run / "steps.csv")
     still = steps[steps["t"] >= steps["t"].iloc[-1] - 0.5]
-    # (the median over the half second: a step's friction magnitudes per pad also count the horizontal friction
-    # the two pads exchange, which comes and goes as the contact solver distributes the forces)
+    # (the median over the half second: a step's friction magnitudes per pad come and go as the solver shares them)
     carried = sum(still[f"{h}_friction_used"] * 0.8 * still[f"{h}_contact_N"] for h in ("left", "right"))
-    assert np.isclose(np.median(carried), 0.8 * 9.81, rtol=0.05)
+    assert np.median(carried) >= 0.98 * 0.8 * 9.81
     for hand in ("left", "right"):
         assert (still[f"{hand}_contact_points"] >= 3).all()  # flat on the face, not on an edge
         assert still[f"{hand}_contact_normal_off_face_deg"].max() < 1.0  # normals along the box's face
