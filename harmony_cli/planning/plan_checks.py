@@ -1,6 +1,5 @@
-"""What the planner asks of a phase's first plan before it takes it (and ranks two plans by): the hands pass
-every obstacle on one side with their clearance; whether they start clear; and how far a phase's goal itself lies
-inside a clearance."""
+"""What the planner asks of a phase's first plan before it takes it: the hands pass every obstacle on one side with
+their clearance; and how far a phase's goal itself lies inside a clearance."""
 
 from __future__ import annotations
 
@@ -13,10 +12,12 @@ CLEARANCE_SLACK = 5e-3  # [m] predicted clearance shortfall tolerated in a phase
 BASE_SLACK = 0.02  # [m] the same for the base footprint (carried as at home: the arms may make up the rest)
 
 
-def keeps_shape(solved: Solved, basis: np.ndarray, obstacles: list[Obstacle]) -> bool:
-    """Whether a plan passes every obstacle with both hands on one side: its predicted clearances (hands, and
-    nearly the base's) are met and no standing obstacle is between the hands at a sample (`basis`: (S, M); a
-    local SQP may split them round one)."""
+def is_clean(solved: Solved, basis: np.ndarray, obstacles: list[Obstacle]) -> bool:
+    """A phase's first plan that needs no second look: converged, its predicted clearances met (hands, and nearly
+    the base's, no shortfall) and no standing obstacle between the hands at a sample (`basis`: (S, M); a local SQP
+    may split them round one)."""
+    if not solved.converged:
+        return False
     curves = solved.C[:6] @ basis.T
     hands = curves.reshape(2, 3, -1).transpose(0, 2, 1)  # (hand, sample, xyz)
     between = (hands[0] + BETWEEN[:, None, None] * (hands[1] - hands[0])).reshape(-1, 3)
@@ -25,28 +26,6 @@ def keeps_shape(solved: Solved, basis: np.ndarray, obstacles: list[Obstacle]) ->
             return False
     clear = solved.clearance >= -CLEARANCE_SLACK and solved.shortfall <= SHORT
     return clear and solved.base_clearance >= -BASE_SLACK
-
-
-def starts_clear(obstacles: list[Obstacle], hands: np.ndarray, t: float, reliefs: np.ndarray, carried) -> bool:
-    """Whether the `hands` (2, 3) at time t (and the object carried between them) are outside every obstacle's
-    clearance, less its `reliefs` (goal_reliefs)."""
-    return bool((clearance_margins(obstacles, hands, t, carried) >= -reliefs).all())
-
-
-def is_clean(solved: Solved, basis: np.ndarray, obstacles: list[Obstacle]) -> bool:
-    """A phase's first plan that needs no second look: converged, clear (hands and base, no shortfall), hands on
-    one side."""
-    return solved.converged and keeps_shape(solved, basis, obstacles)
-
-
-def rank(solved: Solved, basis: np.ndarray, obstacles: list[Obstacle]) -> tuple:
-    """What makes one plan better than another: success, shape kept, a smaller shortfall, converged."""
-    return (
-        solved.success,
-        solved.success and keeps_shape(solved, basis, obstacles),
-        -round(solved.shortfall, 3),
-        solved.converged,
-    )
 
 
 GOAL_INSIDE = 5e-3  # [m] how far inside the goal's own distance a lowered clearance is kept

@@ -24,17 +24,13 @@ if TYPE_CHECKING:
 ROUTE_POINTS = 41  # the base's route, read at this many even steps of its length, carries the midpoint
 
 
-def straight_line(start: np.ndarray, end: np.ndarray, M: int) -> np.ndarray:
-    """Control points evenly along start -> end (7,): the curves move at constant speed."""
-    return start[:, None] + (end - start)[:, None] * np.linspace(0, 1, M)
-
-
 def straight_to(ends, M: int) -> np.ndarray:
-    """Control points (7, M) from the measured hands and heading straight to the goal's (`ends`: state, goal,
-    heading)."""
+    """Control points (7, M) evenly from the measured hands and heading to the goal's (`ends`: state, goal,
+    heading): the curves move at constant speed."""
     state, goal, heading_goal = ends
     start = np.concatenate([state.positions.ravel(), [state.heading]])
-    return straight_line(start, np.concatenate([goal.ravel(), [heading_goal]]), M)
+    end = np.concatenate([goal.ravel(), [heading_goal]])
+    return start[:, None] + (end - start)[:, None] * np.linspace(0, 1, M)
 
 
 def fix_ends(C: np.ndarray, state: HandState, goal: np.ndarray, goal_heading: float, T: float) -> None:
