@@ -167,14 +167,12 @@ def test_the_corner_pairs_made_ahead_for_all_outlines_are_those_tested_among_the
 
 
 def test_a_route_s_fit_by_the_matrix_built_with_the_planner_equals_numpy_s_least_squares():
-    # the planner's control points fitted to a shift at its samples: the pseudo-inverse made once (plan_seed) against
+    # the planner's control points fitted to a shift at its samples: the pseudo-inverse made once (HandSQP) against
     # np.linalg.lstsq solved each time, as the fit was before
-    from harmony_cli.maths.bezier import bernstein_basis
-    from harmony_cli.planning.plan_seed import fit_matrix
+    from harmony_cli.planning.hand_sqp import HandSQP
+    from harmony_cli.scenario import PlannerSpec
 
-    M, samples = 11, np.linspace(0.0, 1.0, 21)[1:]
-    basis, free = bernstein_basis(M, samples), np.zeros((7, M), dtype=bool)
-    free[:, 2 : M - 3] = True
-    shift = np.random.default_rng(5).normal(size=(len(samples), 2))
-    expected = np.linalg.lstsq(basis[:, free[0]], shift, rcond=None)[0]
-    np.testing.assert_allclose(fit_matrix(basis, free) @ shift, expected, atol=1e-12)
+    sqp = HandSQP(PlannerSpec(), [], 0.0)
+    shift = np.random.default_rng(5).normal(size=(len(sqp.s), 2))
+    expected = np.linalg.lstsq(sqp.B[:, sqp.free[0]], shift, rcond=None)[0]
+    np.testing.assert_allclose(sqp.fit @ shift, expected, atol=1e-12)

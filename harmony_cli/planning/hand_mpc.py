@@ -27,7 +27,7 @@ from harmony_cli.maths.bezier import shift_matrix
 from harmony_cli.mpc.problem import NoPlanToHold
 from harmony_cli.planning.hand_plan import Ends, HandState, Obstacle, Outcome, Plan, PlannerResult, Solved
 from harmony_cli.planning.hand_sqp import HandSQP, rate_bounds
-from harmony_cli.planning.phase_start import Awaiting, Search, Step, held, route_seed
+from harmony_cli.planning.phase_start import Awaiting, Search, Step, route_seed
 from harmony_cli.planning.plan_base import PlannedBase
 from harmony_cli.planning.plan_checks import goal_reliefs, is_clean
 from harmony_cli.planning.plan_horizon import least_horizon, meets, retimed
@@ -167,7 +167,9 @@ class HandMPC:
         assert search is not None
         T = max(search.end - t, self.spec.min_horizon)
         self._reliefs(key, search.end, carried)
-        solved = self.sqp.solve(search.C, t, T, ends, search.take(self.spec.step_iterations), carried, width)
+        share = min(self.spec.step_iterations, search.left)  # this step's QPs, taken from what is left
+        search.left -= share
+        solved = self.sqp.solve(search.C, t, T, ends, share, carried, width)
         solved = replace(solved, routed=search.routed)
         if solved.success and not solved.converged and search.left > 0:
             return solved, Step.RUNNING
@@ -193,11 +195,14 @@ class HandMPC:
         return (solved if how is Step.ENDED and not routed.success else routed), how
 
     def _later_step(self, t: float, state: HandState, ends: Ends, phase_end: float, load: tuple, key) -> Solved:
-        """The taken plan from now on, re-planned by `iterations` QPs; when that fails because the hands fell
-        behind its end, the closed-form horizon (the clearance rows' slack is always feasible), which later plans
-        then keep."""
+        """The taken plan from now on (de Casteljau), re-planned by `iterations` QPs over the horizon a later plan
+        keeps (_kept_horizon); when that fails because the hands fell behind its end, the closed-form horizon (the
+        clearance rows' slack is always feasible), which later plans then keep."""
+        assert self.C is not None
         carried, width = load
-        C, T = self._later_horizon(t, state, phase_end)
+        tau = min(max((t - self.t_plan) / self.T_plan, 0.0), 0.99)  # np.clip costs ~4 us on a float
+        C = self.C @ shift_matrix(self.M, tau) if tau > 0 else self.C.copy()
+        T = max(self._kept_horizon(C, state, phase_end - t, self.t_plan + self.T_plan - t), self.spec.min_horizon)
         self._reliefs(key, t + T, carried)
         solved = self.sqp.solve(C, t, T, ends, self.spec.iterations, carried, width)
         if not solved.success and (longer := self.horizon(ends, T)) > T:
@@ -216,18 +221,11 @@ class HandMPC:
             self.sqp.reliefs = goal_reliefs(self.obstacles, goal, end, carried)
             self._relief_key = (phase, free, goal.tobytes())
 
-    def _later_horizon(self, t: float, state: HandState, phase_end: float) -> tuple[np.ndarray, float]:
-        """The taken plan from now on (de Casteljau) and the horizon a later plan keeps (_kept_horizon)."""
-        assert self.C is not None
-        tau = min(max((t - self.t_plan) / self.T_plan, 0.0), 0.99)  # np.clip costs ~4 us on a float
-        C = self.C @ shift_matrix(self.M, tau) if tau > 0 else self.C.copy()
-        T = self._kept_horizon(C, state, phase_end - t, self.t_plan + self.T_plan - t)
-        return C, max(T, self.spec.min_horizon)
-
     def _holding(self, t: float, state: HandState, solved: Solved, elapsed: float) -> PlannerResult:
         """While a first plan's search runs: the last plan taken (before any, the hands held where they are)."""
-        if self.C is None:
-            self.C, self.t_plan, self.T_plan = held(state.positions, state.heading, self.M), t, self.spec.min_horizon
+        if self.C is None:  # the hands held where they are
+            self.C = np.repeat(np.r_[state.positions.ravel(), state.heading][:, None], self.M, axis=1)
+            self.t_plan, self.T_plan = t, self.spec.min_horizon
         plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
         return PlannerResult(
             plan, Outcome.SEARCHING, solved.iterations, elapsed, solved.clearance, solved.routed, solved.shortfall

@@ -25,7 +25,7 @@ from harmony_cli.mpc.distance_code import CompiledDistance
 from harmony_cli.planning.footprint_code import CompiledMargins
 from harmony_cli.planning.hand_plan import ROWS, Ends, Obstacle, Outcome, Solved
 from harmony_cli.planning.plan_base import PlannedBase
-from harmony_cli.planning.plan_seed import fit_matrix, fix_ends
+from harmony_cli.planning.plan_seed import fix_ends
 
 if TYPE_CHECKING:
     from harmony_cli.scenario.models import PlannerSpec
@@ -56,7 +56,8 @@ class HandSQP:
         self.n_free = int(self.free.sum())
         s = self.s = np.linspace(0.0, 1.0, spec.samples + 1)[1:]  # obstacle and facing samples (s = 0 is fixed)
         self.B = bernstein_basis(M, s)  # (S, M)
-        self.fit = fit_matrix(self.B, self.free)  # a route's least-squares fit (plan_seed.py)
+        # a route's least-squares fit of a shift at the samples (plan_seed.moved_onto): in the step, one product
+        self.fit = np.linalg.pinv(self.B[:, self.free[0]])
         self._s_start = np.r_[0.0, s]
         self._B_start = bernstein_basis(M, self._s_start)  # the start too (the base's reliefs)
         D1, D2 = difference_matrix(M, 1), difference_matrix(M, 2)
@@ -125,7 +126,6 @@ class HandSQP:
         # a slack lifts each clearance row of its obstacle and point: every QP is feasible, a shortfall costs
         # SLACK_COST per metre (an exact penalty: none is taken where the rows can be met), and one point's start
         # inside a margin does not excuse another's
-        S = self.s.size
         for k in range(len(self.obstacles) * self.n_points):
             qp_columns[self.n_free + k, self.n_keep + k * S : self.n_keep + (k + 1) * S] = 1.0
             H[self.n_free + k, self.n_free + k] = SLACK_RIDGE
@@ -184,9 +184,8 @@ class HandSQP:
         self._brake(limit, np.abs(hodographs[self._first_speed]), T)
         args["lba"][: self.n_keep], args["uba"][: self.n_keep] = -limit - Ax, limit - Ax
         clearance = self._clearance_rows(curves, t, T, carried)
-        args["ubx"][: self.n_free][self._heights] = (
-            self.ceiling - x[self._height_index]
-        )  # curves in their control points' hull
+        # the hands' heights: each curve lies in its control points' hull
+        args["ubx"][: self.n_free][self._heights] = self.ceiling - x[self._height_index]
         out = self.qp()
         if not self.qp.stats()["success"]:
             return None, clearance, base_clearance, np.inf

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from harmony_cli.planning.plan_seed import fix_ends, on_route, straight_to
+from harmony_cli.planning.plan_seed import fix_ends, moved_onto, route_around, straight_to
 
 if TYPE_CHECKING:
     from harmony_cli.planning.hand_plan import Ends, Solved
@@ -60,21 +60,14 @@ class Search:
     via: bool = False
     line: Awaiting | None = None  # a route's: the line's plan it replaces (taken if the route's QP fails)
 
-    def take(self, most: int) -> int:
-        """The QPs of this step's share (at most `most`), taken from what is left."""
-        share = min(most, self.left)
-        self.left -= share
-        return share
-
 
 def route_seed(sqp: HandSQP, ground: Ground | None, T: float, ends: Ends, carried, via=None) -> np.ndarray | None:
-    """The straight line over a horizon T moved onto a planar route (plan_seed.py) through `via` (2,) if given;
-    None when there is no way round, or nothing in the way."""
+    """The straight line over a horizon T moved onto a planar route from the measured hands to the goal through
+    `via` (2,) if given (plan_seed.route_around); None when there is no way round, or nothing in the way."""
+    state, goal, heading = ends
+    route = route_around(sqp.obstacles, state.positions, goal, carried, ground, via, (state.heading, heading))
+    if route is None or len(route.points) == 2:
+        return None
     C = straight_to(ends, sqp.M)
     fix_ends(C, *ends, T)
-    return on_route(C, ends, sqp.obstacles, carried, ground, via, (sqp.B, sqp.s, sqp.free, sqp.fit))
-
-
-def held(positions: np.ndarray, heading: float, M: int) -> np.ndarray:
-    """Control points (7, M) of the hands held at `positions` (2, 3) and `heading`: a plan before any is taken."""
-    return np.repeat(np.r_[positions.ravel(), heading][:, None], M, axis=1)
+    return moved_onto(C, route, sqp.B, sqp.s, sqp.free, sqp.fit)

@@ -144,27 +144,10 @@ def warm_outlines(obstacles: list[Obstacle], ground: Ground | None) -> None:
     corner_graph([polygon_of(o) for o in _outlines(obstacles, ground, (-np.inf, np.inf), ground.base_radius)])
 
 
-def on_route(C, ends, obstacles, carried, ground, via, sampling) -> np.ndarray | None:
-    """`C` (the straight line's control points, its ends fixed) moved onto the route from the measured hands to the
-    goal (`ends`: state, goal, heading) through `via` (route_around); None when there is no way round or nothing in
-    the way. `sampling`: the planner's basis (S, M), sample parameters (S,), free columns (7, M) and least-squares
-    fit (free columns, S) (fit_matrix)."""
-    state, goal, heading = ends
-    route = route_around(obstacles, state.positions, goal, carried, ground, via, (state.heading, heading))
-    return None if route is None or len(route.points) == 2 else moved_onto(C, route, *sampling)
-
-
-def fit_matrix(basis: np.ndarray, free: np.ndarray) -> np.ndarray:
-    """The least-squares fit (free columns, S) of a shift at the samples by the free control points of a curve with
-    `basis` (S, M): computed once, when the planner is built, so that a route's fit inside the control step is one
-    matrix product instead of a least-squares solve."""
-    return np.linalg.pinv(basis[:, free[0]])
-
-
 def moved_onto(C: np.ndarray, route: Route, basis: np.ndarray, s: np.ndarray, free: np.ndarray, fit: np.ndarray):
     """`C` (straight-line control points) with both hands' free columns moved so that their midpoint follows
-    `route` at the sample parameters `s` (least squares: `fit`, fit_matrix of `basis` (len(s), M)); fixed columns
-    stay."""
+    `route` at the sample parameters `s` (least squares: `fit` (free columns, len(s)), the pseudo-inverse of
+    `basis`'s free columns); fixed columns stay."""
     midpoint = 0.5 * (C[0:2] + C[3:5]) @ basis.T  # (2, S) the straight line's midpoint at the samples
     fitted = (route.at(s).T - midpoint) @ fit.T  # (2, free columns)
     columns = free[0]
