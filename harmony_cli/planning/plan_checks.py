@@ -32,24 +32,18 @@ GOAL_INSIDE = 5e-3  # [m] how far inside the goal's own distance a lowered clear
 
 
 def goal_reliefs(obstacles: list[Obstacle], goal: np.ndarray, end: float, carried: tuple[float, float] | None):
-    """Per obstacle, how much its clearance must drop for the phase's `goal` (2, 3) hands (and the carried object
-    between them) at time `end` to meet it, plus GOAL_INSIDE (0 where the goal is clear). An author may put a
-    goal within an obstacle's margin (the margin is a preference, the obstacle is not): the plan still ends there
-    and keeps as far away as the goal allows on its way; the whole-body MPC keeps its own margins."""
-    margin = clearance_margins(obstacles, goal, end, carried)
-    return np.where(margin < 0.0, GOAL_INSIDE - margin, 0.0)
-
-
-def clearance_margins(obstacles: list[Obstacle], hands: np.ndarray, t: float, carried: tuple[float, float] | None):
-    """Per obstacle where it is at time t, how far the `hands` (2, 3), and the object carried between them (its
-    radius and drop below the hands), are outside its clearance (the nearer of them; negative: inside)."""
-    out = np.zeros(len(obstacles))
+    """Per obstacle where it is at time `end`, how much its clearance must drop for the phase's `goal` (2, 3) hands
+    and the object carried between them (its radius and drop below the hands) to meet it, plus GOAL_INSIDE (0
+    where the goal is clear). An author may put a goal within an obstacle's margin (the margin is a preference, the
+    obstacle is not): the plan still ends there and keeps as far away as the goal allows on its way; the whole-body
+    MPC keeps its own margins."""
+    reliefs = np.zeros(len(obstacles))
     for i, obstacle in enumerate(obstacles):
-        moved = 0.0 if obstacle.motion is None else obstacle.motion(np.array([t]))[0] - obstacle.shape.centre
-        margin = obstacle.shape.distance(hands - moved)[0].min() - obstacle.clearance
+        moved = 0.0 if obstacle.motion is None else obstacle.motion(np.array([end]))[0] - obstacle.shape.centre
+        margin = obstacle.shape.distance(goal - moved)[0].min() - obstacle.clearance
         if carried is not None:
-            point = hands.mean(axis=0) - [0.0, 0.0, carried[1]]
+            point = goal.mean(axis=0) - [0.0, 0.0, carried[1]]
             distance = obstacle.shape.grown(carried[0]).distance(point[None] - moved)[0][0]
             margin = min(margin, distance - obstacle.clearance)
-        out[i] = margin
-    return out
+        reliefs[i] = GOAL_INSIDE - margin if margin < 0.0 else 0.0
+    return reliefs
