@@ -46,13 +46,11 @@ class Planner:
         hands, offset = home_hands(robot)  # home heading is 0 (base yaw 0 at home)
         # `motions`: per obstacle, what predicts it (absolute times -> centres); None: the scripted motions
         obstacles = planned_obstacles(scenario.world.obstacles, scenario.planner.hand_radius, motions)
-        base = _planned_base(scenario, robot.home[list(robot.base_joints)], hands, motions)
+        base, ground = _footprint(scenario, robot.home[list(robot.base_joints)], hands, motions)
         width = _grip_width(scenario, robot, hands)
         self.ceiling = hand_ceiling(robot, width)
         self.warnings = _above(scenario, robot.hand_names, self.ceiling, width)
-        self.planner = HandMPC(
-            scenario.planner, obstacles, self.home_rotations, offset, _ground(scenario, base), base, self.ceiling
-        )
+        self.planner = HandMPC(scenario.planner, obstacles, self.home_rotations, offset, ground, base, self.ceiling)
         self.warnings += self._goals_inside(robot.hand_names)
         self.stances = written_stances(scenario, robot, hands, offset)
         self.stance_plan = stance_plan(scenario, robot, self.stances, offset)  # vias and chest postures
@@ -277,22 +275,18 @@ def _above(scenario: Scenario, hand_names: tuple[str, ...], ceiling: float | Non
     return lines
 
 
-def _ground(scenario: Scenario, base: PlannedBase | None) -> Ground | None:
-    """The tables and the base's half width at its narrowest, for the planner's route, which is the base's where
-    the planner carries the footprint (`base`) (None: no footprint)."""
+def _footprint(
+    scenario: Scenario, base_pose: np.ndarray, hands: np.ndarray, motions: list[Motion] | None
+) -> tuple[PlannedBase | None, Ground | None]:
+    """The footprint as the planner carries it behind the hands (None: no footprint, or nothing to clear), and the
+    tables and the base's half width at its narrowest for the planner's route, which is the base's where the
+    planner carries the footprint (None: no footprint)."""
     circles = np.asarray(scenario.robot.footprint, dtype=float).reshape(-1, 3)
     if len(circles) == 0:
-        return None
-    tables = [(table_shape(t), scenario.robot.base_margin) for t in scenario.world.tables]
-    if base is None:
-        return Ground(tables, 0.5 * narrowest_width(circles))
-    return Ground(tables, 0.5 * narrowest_width(circles), base.offsets.mean(axis=0), base.yaw_home)
-
-
-def _planned_base(
-    scenario: Scenario, base_pose: np.ndarray, hands: np.ndarray, motions: list[Motion] | None
-) -> PlannedBase | None:
-    """The footprint as the planner carries it behind the hands (None: no footprint, or nothing to clear)."""
-    circles = np.asarray(scenario.robot.footprint, dtype=float).reshape(-1, 3)
+        return None, None
     bodies, _ = base_bodies(scenario, motions)
-    return PlannedBase.at_home(circles, base_pose, hands, bodies) if len(circles) and bodies else None
+    tables = [(table_shape(t), scenario.robot.base_margin) for t in scenario.world.tables]
+    if not bodies:
+        return None, Ground(tables, 0.5 * narrowest_width(circles))
+    base = PlannedBase.at_home(circles, base_pose, hands, bodies)
+    return base, Ground(tables, 0.5 * narrowest_width(circles), base.offsets.mean(axis=0), base.yaw_home)
