@@ -89,8 +89,29 @@ class Outcome(Enum):
 SHORT = 5e-3  # [m] a slack above this is a clearance the plan falls short of
 
 
+class Ended:
+    """How an SQP or a step's plan ended, as the steps log says it: whether it succeeded, and its status (the
+    outcome, what raised, "(route)" when routed, the shortfall when there is one)."""
+
+    outcome: Outcome
+    routed: bool
+    shortfall: float
+    detail = ""
+
+    @property
+    def success(self) -> bool:
+        return self.outcome.success
+
+    @property
+    def status(self) -> str:
+        what = f" {self.detail}" if self.detail else ""
+        route = " (route)" if self.routed else ""
+        short = f" (short {100 * self.shortfall:.1f} cm)" if self.shortfall > SHORT else ""
+        return f"{self.outcome.value}{what}{route}{short}"
+
+
 @dataclass(frozen=True)
-class Solved:
+class Solved(Ended):
     """One SQP's outcome: control points, horizon, how it ended, iterations, predicted clearance, the largest
     clearance shortfall it took (its slack) and the base footprint's predicted margin; `routed`: seeded on a route."""
 
@@ -104,20 +125,12 @@ class Solved:
     routed: bool = False
 
     @property
-    def success(self) -> bool:
-        return self.outcome.success
-
-    @property
     def converged(self) -> bool:
         return self.outcome is Outcome.CONVERGED
 
-    @property
-    def status(self) -> str:
-        return status_line(self.outcome, self.routed, self.shortfall)
-
 
 @dataclass(frozen=True)
-class PlannerResult:
+class PlannerResult(Ended):
     """The hands' MPC's answer at one step: the plan the controllers sample (the last good one when this step's
     was not taken), how this step's plan ended, and what the step log records of it."""
 
@@ -129,22 +142,6 @@ class PlannerResult:
     routed: bool = False  # the SQP was seeded on a route round the obstacles
     shortfall: float = 0.0  # [m] the largest clearance the plan falls short of (its QP's slack)
     detail: str = ""  # what raised, for an ERROR
-
-    @property
-    def success(self) -> bool:
-        return self.outcome.success
-
-    @property
-    def status(self) -> str:
-        return status_line(self.outcome, self.routed, self.shortfall, self.detail)
-
-
-def status_line(outcome: Outcome, routed: bool, shortfall: float, detail: str = "") -> str:
-    """For the steps log: the outcome, what raised, "(route)" when routed, the shortfall when there is one."""
-    what = f" {detail}" if detail else ""
-    route = " (route)" if routed else ""
-    short = f" (short {100 * shortfall:.1f} cm)" if shortfall > SHORT else ""
-    return f"{outcome.value}{what}{route}{short}"
 
 
 def planned_obstacles(
