@@ -7,33 +7,32 @@ the obstacles and table legs by soft rows (the arms may stretch: the true base i
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from harmony_cli.planning.hand_plan import Obstacle
 
 
-@dataclass(frozen=True)
 class PlannedBase:
     """`circles` (n, 3): x, y, radius in the base frame; `offsets` (n, 2): each circle's centre from the hands'
     midpoint at home, in the base frame; `yaw_home`: the base's yaw at heading 0; `bodies`: what the footprint
     keeps `clearance` from in plan view (obstacles with their margin, table legs with the base's)."""
 
-    circles: np.ndarray
-    offsets: np.ndarray
-    yaw_home: float
-    bodies: tuple[Obstacle, ...]
-    # the bodies as arrays (plan view), for every body at once: centres at t = 0, yaws, half sizes, round or not
-    _centres: np.ndarray = field(init=False, repr=False)
-    _yaws: np.ndarray = field(init=False, repr=False)
-    _halves: np.ndarray = field(init=False, repr=False)
-    _round: np.ndarray = field(init=False, repr=False)
-    _clearances: np.ndarray = field(init=False, repr=False)
-    _radii: np.ndarray = field(init=False, repr=False)
-    _hub: np.ndarray = field(init=False, repr=False)
-    _moving: tuple[int, ...] = field(init=False, repr=False)
-    _reserve: np.ndarray = field(init=False, repr=False)
+    def __init__(self, circles: np.ndarray, offsets: np.ndarray, yaw_home: float, bodies: tuple[Obstacle, ...]):
+        self.circles, self.offsets, self.yaw_home, self.bodies = circles, offsets, yaw_home, bodies
+        # the bodies as arrays (plan view), for every body at once: centres at t = 0, yaws, half sizes, round or not
+        shapes = [body.shape for body in bodies]  # in plan view: a sphere by its outline, like a cylinder
+        self._centres = np.array([s.centre[:2] for s in shapes]).reshape(-1, 2)
+        self._yaws = np.array([s.yaw for s in shapes])
+        self._halves = np.array([s.half[:2] for s in shapes]).reshape(-1, 2)
+        self._round = np.array([s.kind != "box" for s in shapes])
+        self._clearances = np.array([b.clearance for b in bodies])
+        radii = np.where(self._round, self._halves[:, 0], np.hypot(self._halves[:, 0], self._halves[:, 1]))
+        self._hub = offsets.mean(axis=0) if len(offsets) else np.zeros(2)  # the footprint's middle
+        spread = np.hypot(*(offsets - self._hub).T) + circles[:, 2]
+        self._moving = tuple(k for k, b in enumerate(bodies) if b.motion is not None)
+        # what the screen takes off a body's distance: the footprint's bounding circle, the body's plan-view radius
+        # about its centre, its clearance
+        self._reserve = spread.max(initial=0.0) + radii + self._clearances
 
     @classmethod
     def at_home(cls, circles: np.ndarray, base_pose: np.ndarray, hands: np.ndarray, bodies: list[Obstacle]):
@@ -42,22 +41,6 @@ class PlannedBase:
         d = hands[:, :2].mean(axis=0) - base_pose[:2]
         midpoint = np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])  # in the base frame
         return cls(circles, circles[:, :2] - midpoint, float(base_pose[2]), tuple(bodies))
-
-    def __post_init__(self):
-        shapes = [body.shape for body in self.bodies]  # in plan view: a sphere by its outline, like a cylinder
-        object.__setattr__(self, "_centres", np.array([s.centre[:2] for s in shapes]).reshape(-1, 2))
-        object.__setattr__(self, "_yaws", np.array([s.yaw for s in shapes]))
-        object.__setattr__(self, "_halves", np.array([s.half[:2] for s in shapes]).reshape(-1, 2))
-        object.__setattr__(self, "_round", np.array([s.kind != "box" for s in shapes]))
-        object.__setattr__(self, "_clearances", np.array([b.clearance for b in self.bodies]))
-        radii = np.where(self._round, self._halves[:, 0], np.hypot(self._halves[:, 0], self._halves[:, 1]))
-        object.__setattr__(self, "_radii", radii)  # each body's plan-view radius about its centre
-        hub = self.offsets.mean(axis=0) if len(self.offsets) else np.zeros(2)  # the footprint's middle
-        spread = np.hypot(*(self.offsets - hub).T) + self.circles[:, 2]
-        object.__setattr__(self, "_hub", hub)
-        object.__setattr__(self, "_moving", tuple(k for k, b in enumerate(self.bodies) if b.motion is not None))
-        # what the screen takes off a body's distance: the footprint's bounding circle, the body's radius, clearance
-        object.__setattr__(self, "_reserve", spread.max(initial=0.0) + self._radii + self._clearances)
 
     def margins(self, midpoints: np.ndarray, headings: np.ndarray, times: np.ndarray, near=None, nearest=None):
         """Per body (those `near`, a mask; all by default) and sample, the smallest margin (>= 0: clear) of any circle
