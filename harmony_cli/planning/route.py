@@ -49,7 +49,8 @@ def footprint(shape: Shape, radius: float) -> np.ndarray:
 
 @lru_cache(maxsize=256)
 def _outline(kind: str, centre: tuple, yaw: float, half: tuple, radius: float) -> np.ndarray:
-    circumscribed = _unit_ring() / np.cos(np.pi / SIDES)
+    angles = 2 * np.pi * (np.arange(SIDES) + 0.5) / SIDES
+    circumscribed = np.column_stack([np.cos(angles), np.sin(angles)]) / np.cos(np.pi / SIDES)
     shape = Shape(kind, np.array(centre), yaw, np.array(half))
     if kind in ("cylinder", "sphere"):
         outline = shape.centre[:2] + (shape.half[0] + radius) * circumscribed
@@ -124,11 +125,6 @@ def _way_out(point: np.ndarray, polygons: list[Polygon]) -> np.ndarray:
             away = foot - point
             return foot + OUTSET * away / max(float(np.linalg.norm(away)), 1e-12)
     return point
-
-
-def _unit_ring() -> np.ndarray:
-    angles = 2 * np.pi * (np.arange(SIDES) + 0.5) / SIDES
-    return np.column_stack([np.cos(angles), np.sin(angles)])
 
 
 def _convex_hull(points: np.ndarray) -> np.ndarray:

@@ -119,7 +119,8 @@ def stance_poses(
     ubx = np.r_[np.full(3, np.inf), gives, np.tile(upper, len(targets))]
     options = {"ipopt.print_level": 0, "print_time": False, "ipopt.max_iter": 300, "ipopt.sb": "yes"}
     solver = cs.nlpsol("stance", "ipopt", {"x": cs.vertcat(base, reliefs, *variables), "f": cost, "g": g}, options)
-    behind = _behind(robot, home)
+    # the hands' midpoint at home from the base's origin, in the base frame (plan view)
+    behind = np.mean([p.ravel()[:2] for p, _ in robot.hand_poses_numeric(home)], axis=0)
     middle = targets.mean(axis=(0, 1))[:2]
     found: list[StancePose] = []
     for turn_deg, share in starts:
@@ -181,8 +182,3 @@ def _trunk_rows(scenario: Scenario, base: cs.SX) -> list:
         distance = symbolic_distance(top.kind, top.half, top.centre, top.yaw, point, planar=True)
         rows.append((distance - radius, 0.0, np.inf))
     return rows
-
-
-def _behind(robot: Robot, home: np.ndarray) -> np.ndarray:
-    """The hands' midpoint at home from the base's origin, in the base frame (plan view)."""
-    return np.mean([p.ravel()[:2] for p, _ in robot.hand_poses_numeric(home)], axis=0)
