@@ -85,7 +85,13 @@ def route_around(
     if ground is not None:
         reach = max(reach, ground.base_radius)
     outlines = _outlines(obstacles, ground, (low, hands_z.max()), reach)
-    return _through(start.mean(axis=0)[:2], goal.mean(axis=0)[:2], outlines, via)
+    ends = start.mean(axis=0)[:2], goal.mean(axis=0)[:2]
+    if via is None:
+        return plan_route(*ends, outlines)
+    legs = plan_route(ends[0], via, outlines), plan_route(via, ends[1], outlines)
+    if legs[0] is None or legs[1] is None:
+        return None
+    return Route(np.vstack([legs[0].points, legs[1].points[1:]]), legs[0].length + legs[1].length)
 
 
 def _outlines(obstacles: list[Obstacle], ground: Ground | None, band: tuple[float, float], grow: float) -> list:
@@ -100,16 +106,6 @@ def _outlines(obstacles: list[Obstacle], ground: Ground | None, band: tuple[floa
     if ground is not None:
         outlines += [footprint(table, margin + ground.base_radius) for table, margin in ground.tables]
     return outlines
-
-
-def _through(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray], via: np.ndarray | None) -> Route | None:
-    """plan_route from `start` to `goal` (2,), through `via` if given."""
-    if via is None:
-        return plan_route(start, goal, outlines)
-    legs = plan_route(start, via, outlines), plan_route(via, goal, outlines)
-    if legs[0] is None or legs[1] is None:
-        return None
-    return Route(np.vstack([legs[0].points, legs[1].points[1:]]), legs[0].length + legs[1].length)
 
 
 def _base_route(obstacles, start, goal, ground: Ground, headings: tuple[float, float]) -> Route | None:
