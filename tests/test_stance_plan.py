@@ -66,7 +66,7 @@ def test_the_stance_puts_the_base_where_the_nearest_pose_stands_from_the_pivot_a
 def test_a_place_reachable_from_either_side_gets_a_pose_each_side_with_the_chest_turned_back_to_the_hands():
     scenario, robot, references = _references(*EITHER_SIDE)
     stance = next(s for s in references.stances if s.warning() is not None)
-    targets, headings, _ = pivot_targets(scenario, robot, stance, references.planner.heading_offset)
+    targets, headings, _ = pivot_targets(stance, references.planner.heading_offset)
     poses = stance_poses(scenario, robot, targets, headings)
     chest = robot.index(scenario.robot.chest_joints[0])
     sides = [np.sign(pose.base[1] - stance.pivot_position[1]) for pose in poses]

@@ -33,7 +33,7 @@ TOLERANCE = 0.1
 class Stance:
     """A group of phases (names) and its pivot ("the box", "the box's goal"): the base's smallest margin [m] with
     the hands as written, the body it is nearest, and the smallest turn [deg] about the pivot that clears it
-    (None: none up to MOST_DEG)."""
+    (None: none up to MOST_DEG); the pivot's position and the phases' hand targets as written (phases, hands, 3)."""
 
     phases: tuple[str, ...]
     pivot: str
@@ -41,6 +41,7 @@ class Stance:
     body: str
     turn_deg: float | None
     pivot_position: np.ndarray
+    targets: np.ndarray
 
     @property
     def blocked(self) -> bool:
@@ -131,7 +132,7 @@ def _stance(phases, pivot_name, pairs, pivot, base, heading_offset) -> Stance:
             turn = float(best)
             break
     nearest = int(np.argmin(margins))
-    return Stance(phases, pivot_name, float(margins[nearest]), names[nearest], turn, pivot)
+    return Stance(phases, pivot_name, float(margins[nearest]), names[nearest], turn, pivot, pairs)
 
 
 def _margins(pairs: np.ndarray, base: PlannedBase, heading_offset: float) -> np.ndarray:

@@ -36,7 +36,7 @@ def _standing(scenario: Scenario) -> Scenario:
 
 def written_stance_class(scenario: Scenario, robot: Robot) -> StanceClass:
     """How blocked the scene's written stances are, among the bodies that stand still (stance.StanceClass)."""
-    return stance_class(written_stances(_standing(scenario), robot, *home_hands(robot)))
+    return stance_class(written_stances(scenario, robot, *home_hands(robot)))
 
 
 def unposed(scenario: Scenario, robot: Robot) -> str | None:
@@ -47,7 +47,7 @@ def unposed(scenario: Scenario, robot: Robot) -> str | None:
     for stance in written_stances(still, robot, hands, offset):
         if not stance.blocked:
             continue
-        at_pivot = pivot_targets(still, robot, stance, offset)
+        at_pivot = pivot_targets(stance, offset)
         if at_pivot is None or stance_poses(still, robot, *at_pivot[:2], first=True, starts=SEARCH):
             continue
         return f"{no_pose(stance, bool(scenario.robot.trunk), len(SEARCH))}; {stance.warning()}"
@@ -89,7 +89,6 @@ def written_stances(scenario: Scenario, robot: Robot, hands: np.ndarray, heading
     circles = np.asarray(scenario.robot.footprint, dtype=float).reshape(-1, 3)
     if len(circles) == 0:
         return []
-    bodies, names = base_bodies(scenario)
-    still = [k for k, body in enumerate(bodies) if body.motion is None]
-    footprint = PlannedBase.at_home(circles, robot.home[list(robot.base_joints)], hands, [bodies[k] for k in still])
-    return stances(scenario, robot.hand_names, (footprint, [names[k] for k in still]), heading_offset)
+    bodies, names = base_bodies(_standing(scenario))
+    footprint = PlannedBase.at_home(circles, robot.home[list(robot.base_joints)], hands, bodies)
+    return stances(scenario, robot.hand_names, (footprint, names), heading_offset)

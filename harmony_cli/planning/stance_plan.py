@@ -28,7 +28,6 @@ from harmony_cli.planning.stance import Stance
 from harmony_cli.planning.stance_pose import stance_poses
 from harmony_cli.robot.model import Robot
 from harmony_cli.scenario import Scenario
-from harmony_cli.tasks.as_written import target_position
 
 NEAR = 0.2  # [m] a phase works at its group's pivot when its hands' midpoint is this near it (plan view)
 BLEND = 1.0  # [m] the chest posture blends in over this distance of the planned hands' midpoint to NEAR
@@ -138,7 +137,7 @@ def stance_plan(scenario: Scenario, robot: Robot, found: list[Stance], heading_o
     for stance in found:
         if not stance.blocked:
             continue
-        at_pivot = pivot_targets(scenario, robot, stance, heading_offset)
+        at_pivot = pivot_targets(stance, heading_offset)
         if at_pivot is None:
             continue
         poses = stance_poses(scenario, robot, *at_pivot[:2])
@@ -160,16 +159,11 @@ def stance_plan(scenario: Scenario, robot: Robot, found: list[Stance], heading_o
     return StancePlan(vias, postures, unplaced, reliefs, bool(chest))
 
 
-def pivot_targets(
-    scenario: Scenario, robot: Robot, stance: Stance, heading_offset: float
-) -> tuple[np.ndarray, np.ndarray, bool] | None:
+def pivot_targets(stance: Stance, heading_offset: float) -> tuple[np.ndarray, np.ndarray, bool] | None:
     """The hand targets (phases, hands, 3) of a stance's phases that work at its pivot (within NEAR of it), the
-    planner's headings there (phases,), what stance_pose asks for, and whether the group's first phase is one of
+    planner's headings there (phases,), what stance_poses asks for, and whether the group's first phase is one of
     them (not an approach); None when none is."""
-    assert scenario.task is not None
-    names = [p.name for p in scenario.task.phases]
-    phases = [scenario.task.phases[names.index(n)] for n in stance.phases]
-    pairs = np.array([[target_position(p.hands[h], scenario) for h in robot.hand_names] for p in phases])
+    pairs = stance.targets
     at = np.linalg.norm(pairs.mean(axis=1)[:, :2] - stance.pivot_position[:2], axis=1) <= NEAR
     if not at.any():
         return None
