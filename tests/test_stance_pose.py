@@ -9,7 +9,7 @@ from conftest import needs_pybullet
 
 from harmony_cli.mpc.clearance import FLOOR
 from harmony_cli.planning.planner import Planner
-from harmony_cli.planning.stance_pose import POSITION_TOL, stance_pose
+from harmony_cli.planning.stance_pose import POSITION_TOL, stance_poses
 from harmony_cli.scenario import load_scenario, robot_of
 
 try:  # PyBullet has wheels up to Python 3.11 only: the tests that use it are marked needs_pybullet
@@ -42,7 +42,7 @@ def test_a_blocked_place_gets_a_pose_whose_hands_pinocchio_puts_on_the_targets_a
     scenario = load_scenario(PAPER, BLOCKED)
     robot = robot_of(scenario, PAPER.parent)
     targets, headings = _place(scenario, robot)
-    pose = stance_pose(scenario, robot, targets, headings)
+    pose = stance_poses(scenario, robot, targets, headings, first=True)[0]
     base, joints = pose.base, pose.joints
     assert not pose.relieved
     model = pin.buildModelFromUrdf(str(robot.urdf))
@@ -83,7 +83,7 @@ def test_a_place_reached_only_inside_the_cylinder_s_margin_gets_a_pose_that_goes
     scenario = load_scenario(PAPER, UNDER_TOP)
     robot = robot_of(scenario, PAPER.parent)
     targets, headings = _place(scenario, robot)
-    pose = stance_pose(scenario, robot, targets, headings)
+    pose = stance_poses(scenario, robot, targets, headings, first=True)[0]
     cylinder = scenario.world.obstacles[0]
     assert pose.relieved and pose.reliefs[0] <= cylinder.margin - FLOOR + 1e-6
     assert _trunk_gap(scenario, pose.base) >= -1e-6
@@ -94,14 +94,14 @@ def test_a_place_reached_only_inside_the_cylinder_s_margin_gets_a_pose_that_goes
     assert min(gaps) >= cylinder.margin - pose.reliefs[0] - 1e-4  # the soft-min is below the circles' min
     # without the trunk the pose found stands the base under the table, its waist inside the top, and keeps the margin
     bare = load_scenario(PAPER, [*UNDER_TOP, "robot.trunk=[]"])
-    pose = stance_pose(bare, robot, targets, headings)
+    pose = stance_poses(bare, robot, targets, headings, first=True)[0]
     assert _trunk_gap(scenario, pose.base) < -0.1 and not pose.relieved
 
 
 def test_a_place_with_no_room_even_inside_the_margin_gets_no_pose_no_route_point_and_a_warning():
     scenario = load_scenario(PAPER, NO_ROOM)
     robot = robot_of(scenario, PAPER.parent)
-    assert stance_pose(scenario, robot, *_place(scenario, robot)) is None
+    assert stance_poses(scenario, robot, *_place(scenario, robot), first=True) == []
     references = Planner(robot, scenario)
     assert references.vias == {}
     assert [w for w in references.warnings if w.startswith("stance: no base pose found")] == [
@@ -131,10 +131,10 @@ def test_pybullet_sees_the_waist_inside_the_table_top_at_the_trunkless_pose_and_
     robot = robot_of(load_scenario(PAPER), PAPER.parent)
     bare = load_scenario(PAPER, [*UNDER_TOP, "robot.trunk=[]"])
     targets, headings = _place(bare, robot)
-    joints = stance_pose(bare, robot, targets, headings).joints
+    joints = stance_poses(bare, robot, targets, headings, first=True)[0].joints
     assert min(_trunk_contact_in_pybullet(bare, robot, q) for q in joints) < -0.05
     blocked = load_scenario(PAPER, BLOCKED)
-    joints = stance_pose(blocked, robot, *_place(blocked, robot)).joints
+    joints = stance_poses(blocked, robot, *_place(blocked, robot), first=True)[0].joints
     assert min(_trunk_contact_in_pybullet(blocked, robot, q) for q in joints) > 0.0
 
 
@@ -164,7 +164,7 @@ def test_the_pose_found_faces_the_pads_across_the_targets_whatever_the_robot_s_s
         targets, _ = _place(scenario, robot)
         d = targets[:, 1] - targets[:, 0]
         headings = np.arctan2(d[:, 1], d[:, 0]) + home_hands(robot)[1]  # the planner's: 0 at home as it starts
-        for q, pair in zip(stance_pose(scenario, robot, targets, headings).joints, targets):
+        for q, pair in zip(stance_poses(scenario, robot, targets, headings, first=True)[0].joints, targets):
             across = (pair[1] - pair[0]) / np.linalg.norm(pair[1] - pair[0])
             for h, (_, rotation) in enumerate(robot.hand_poses_numeric(q)):
                 normal = rotation[:, 2]  # the pad's normal points at the other pad

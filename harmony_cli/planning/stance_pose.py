@@ -65,14 +65,6 @@ class StancePose:
         return bool(self.reliefs.max(initial=0.0) > RELIEVED)
 
 
-def stance_pose(scenario: Scenario, robot: Robot, targets: np.ndarray, headings: np.ndarray) -> StancePose | None:
-    """The pose from which the hands reach `targets` (phases, hands, 3) with the pads turned to `headings` (phases,)
-    (the planner's heading: 0 at home), clear of the scene: of the poses found from STARTS, the first that keeps
-    every margin, else the one that goes least into them; None if no start converged."""
-    found = stance_poses(scenario, robot, targets, headings, first=True)
-    return found[0] if found else None
-
-
 def _joint_vector(robot: Robot, home: np.ndarray, free: list[int], x: cs.SX, base: cs.SX) -> cs.SX:
     """The home pose with the `free` joints at `x`, the base's at `base` and mimic joints on their leaders."""
     q = cs.SX(home)
@@ -91,9 +83,10 @@ def stance_poses(
     first: bool = False,
     starts: tuple[tuple[float, float], ...] = STARTS,
 ) -> list[StancePose]:
-    """stance_pose's poses from every one of `starts` (STARTS) that converges, least relief first, else in the
-    order tried (`first`: stop at the first that keeps every margin), the same pose found twice (within SAME_M and
-    SAME_RAD) once."""
+    """The poses from which the hands reach `targets` (phases, hands, 3) with the pads turned to `headings`
+    (phases,) (the planner's heading: 0 at home), clear of the scene, from every one of `starts` (STARTS) that
+    converges: least relief first, else in the order tried (`first`: stop at the first that keeps every margin,
+    then first), the same pose found twice (within SAME_M and SAME_RAD) once."""
     home = home_at_origin(robot)
     # headings are the planner's, 0 at home as the robot starts: the pads turn from there, the base from its yaw
     rotations = [r for _, r in robot.hand_poses_numeric(robot.home)]
