@@ -58,7 +58,7 @@ def test_a_route_starts_when_the_line_s_sqp_ends_and_the_hands_hold_still_until_
     results, wanted = [], []
     for k in range(6):
         results.append(planner.step(0.02 * k, *ARGS, *carried))
-        wanted.append(planner.route_pending)
+        wanted.append(planner.awaiting is not None)
     # the line's SQP: 2 + 2 QPs, converged short of the cylinder, not taken; the route's: 2 + 2 + 2; then a
     # real-time iteration
     assert [r.outcome for r in results] == [Outcome.SEARCHING] * 4 + [Outcome.STEPPED] * 2
@@ -74,7 +74,7 @@ def test_a_route_whose_qp_fails_leaves_the_line_s_plan_taken_as_of_its_own_step_
     planner = HandMPC(PlannerSpec(phase_iterations=6, step_iterations=6), [_cylinder(0.0)], HOME, OFFSET)
     carried = (0.2, 0.0)
     line = planner.step(0.0, *ARGS, *carried)
-    assert line.outcome is Outcome.SEARCHING and planner.route_pending
+    assert line.outcome is Outcome.SEARCHING and planner.awaiting is not None
     solve, calls = planner.sqp.solve, []
 
     def route_fails(C, t, T, ends, iterations, *rest):
@@ -86,4 +86,4 @@ def test_a_route_whose_qp_fails_leaves_the_line_s_plan_taken_as_of_its_own_step_
     result = planner.step(0.02, *ARGS, *carried)
     assert calls == [6, 1]  # the route's SQP, then a real-time iteration of the line's plan from now on
     assert result.outcome is Outcome.STEPPED and not result.routed and result.plan.start == 0.02
-    assert planner.t_plan == 0.02 and not planner.route_pending
+    assert planner.t_plan == 0.02 and planner.awaiting is None

@@ -30,7 +30,7 @@ def _plan(obstacles=(), goal=GOAL, phase_end=PHASE_END, carrying=None, drop=0.0,
     planner = HandMPC(SPEC, list(obstacles), HOME, OFFSET, ceiling=ceiling)
     args = (HandState(START, np.zeros((2, 3)), 0.0), goal, phase_end, 0, carrying, drop)
     result = planner.step(0.0, *args)
-    if planner.route_pending:  # the phase's first plan wants a route: the next step tries it
+    if planner.awaiting is not None:  # the phase's first plan wants a route: the next step tries it
         result = planner.step(0.0, *args)
     return planner, result
 
@@ -309,11 +309,11 @@ def test_a_phase_s_first_plan_that_wants_a_route_gets_it_on_the_next_step():
     planner = HandMPC(SPEC, [_cylinder(0.0)], HOME, OFFSET)
     args = (HandState(START, np.zeros((2, 3)), 0.0), GOAL, PHASE_END, 0, None)  # free hands: succeeds, not clean
     first = planner.step(0.0, *args)
-    assert not first.routed and planner.route_pending  # one SQP on this step
+    assert not first.routed and planner.awaiting is not None  # one SQP on this step
     solves, solve = [], planner.sqp.solve
     planner.sqp.solve = lambda *a, **k: solves.append(a) or solve(*a, **k)  # type: ignore[method-assign]
     second = planner.step(0.02, *args)
-    assert second.routed and not planner.route_pending
+    assert second.routed and planner.awaiting is None
     assert len(solves) == 1  # the route's SQP alone on that step, not the plan's own step as well
 
 
@@ -323,9 +323,9 @@ def test_a_carry_blocked_on_the_straight_line_takes_the_line_s_plan_short_of_the
     planner = HandMPC(SPEC, [_cylinder(0.0)], HOME, OFFSET)
     state = HandState(START, np.zeros((2, 3)), 0.0)
     line = planner.step(0.0, state, GOAL, PHASE_END, 0, CARRYING)
-    assert line.success and line.shortfall > 0.05 and planner.route_pending
+    assert line.success and line.shortfall > 0.05 and planner.awaiting is not None
     routed = planner.step(0.0, state, GOAL, PHASE_END, 0, CARRYING)
-    assert routed.routed and routed.shortfall < 5e-3 and not planner.route_pending
+    assert routed.routed and routed.shortfall < 5e-3 and planner.awaiting is None
     assert routed.min_clearance >= -5e-3
 
 
@@ -334,6 +334,6 @@ def test_a_phase_with_a_point_to_pass_gets_the_route_through_it_at_once(side):
     planner = HandMPC(SPEC, [_cylinder(0.0)], HOME, OFFSET)
     planner.via = np.array([1.7, 0.8 * side])  # beside the cylinder on the straight path, on either side
     result = planner.step(0.0, HandState(START, np.zeros((2, 3)), 0.0), GOAL, PHASE_END, 0, CARRYING)
-    assert result.routed and not planner.route_pending
+    assert result.routed and planner.awaiting is None
     middle = result.plan.sample(np.linspace(0.0, PHASE_END, 200))[0].mean(axis=1)
     assert side * middle[np.argmin(np.abs(middle[:, 0] - 1.7)), 1] > 0.3  # passes the cylinder on the via's side

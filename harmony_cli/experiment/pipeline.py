@@ -148,7 +148,7 @@ def solver_paths(built: Built) -> dict[str, str]:
     """The code path each MPC's solver takes (meta.json): a run's speed depends on it."""
     paths = {"whole_body_mpc": built.mpc.solver.path}
     if isinstance(built.references, Planner):
-        paths["planner"] = built.references.planner.path
+        paths["planner"] = built.references.planner.sqp.path
     return paths
 
 

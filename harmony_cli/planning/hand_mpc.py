@@ -7,12 +7,9 @@ the measured state, the least that is long enough, in closed form (plan_horizon.
 while its QP is feasible, and take the closed-form horizon when the hands have fallen too far behind to meet it.
 A plan that runs past its phase's end comes back to the earliest end its path meets the bounds by, never before
 the phase's: a carry slowed for a moment (grip_force.py) does not stay slow.
-Global guidance: a local SQP linearised at the straight line cannot find its way round an obstacle on it. A
-phase's first plan that does not converge, falls short of a clearance or splits the hands asks for the SQP from
-the straight line moved onto the shortest planar route round obstacles and tables, wide enough for the base
-(plan_seed, route.py), on the next step, and is taken instead of it unless the route's QP fails; until a first
-plan is taken the hands track the last one. A phase with a point to pass (`via`: a base pose that works at a blocked
-stance, planning/stance_pose.py) gets the route through it at once (phase_start.py).
+Global guidance (phase_start.py): a local SQP linearised at the straight line cannot find its way round an
+obstacle on it, so a phase's first plan that is not clean is searched for again from the line moved onto the
+shortest planar route round obstacles and tables, wide enough for the base (plan_seed.py, route.py).
 """
 
 from __future__ import annotations
@@ -26,7 +23,7 @@ import numpy as np
 from harmony_cli.maths.bezier import shift_matrix
 from harmony_cli.mpc.problem import NoPlanToHold
 from harmony_cli.planning.hand_plan import Ends, HandState, Obstacle, Outcome, Plan, PlannerResult, Solved
-from harmony_cli.planning.hand_sqp import HandSQP, rate_bounds
+from harmony_cli.planning.hand_sqp import HandSQP
 from harmony_cli.planning.phase_start import Awaiting, Search, Step, route_seed
 from harmony_cli.planning.plan_base import PlannedBase
 from harmony_cli.planning.plan_checks import goal_reliefs, is_clean
@@ -57,30 +54,19 @@ class HandMPC:
         self.heading_offset = heading_offset  # heading = angle(p_1 - p_0) + offset (pads face each other)
         self.sqp = HandSQP(spec, obstacles, heading_offset, base, ceiling)
         self.M = spec.control_points
-        self._speeds, self._accelerations = rate_bounds(spec)
         self.C: np.ndarray | None = None  # the last good plan's control points, over [t_plan, t_plan + T_plan]
         self.phase: int | None = None
         self.t_plan, self.T_plan = 0.0, 1.0
         self.via: np.ndarray | None = None  # (2,) a point a phase's first plan routes through (a chosen stance)
-        self._awaiting: Awaiting | None = None  # a line's plan that is not clean, until its route's SQP has run
+        self.awaiting: Awaiting | None = None  # a line's plan that is not clean: the next step tries a route
         self.search: Search | None = None  # the phase's first plan while its SQP runs over the steps
         self._relief_key: tuple | None = None  # the goal whose reliefs the SQP has
         warm_outlines(obstacles, ground)  # before the loop, as the compiled code is loaded
 
-    @property
-    def path(self) -> str:
-        return self.sqp.path
-
-    @property
-    def route_pending(self) -> bool:
-        """Whether the next step tries a route (the phase's first plan wanted one)."""
-        return self._awaiting is not None
-
     def set_bounds(self, speeds: np.ndarray, accelerations: np.ndarray) -> None:
         """The rate bounds per curve (7,) of the plans from now on (a held box's, planning/grip_force.py): a plan
         that cannot meet them by its end takes the closed-form horizon."""
-        if not (np.array_equal(speeds, self._speeds) and np.array_equal(accelerations, self._accelerations)):
-            self._speeds, self._accelerations = speeds, accelerations
+        if not (np.array_equal(speeds, self.sqp.speeds) and np.array_equal(accelerations, self.sqp.accelerations)):
             self.sqp.set_bounds(speeds, accelerations)
 
     def goal_heading(self, goal: np.ndarray, heading_now: float) -> float:
@@ -109,10 +95,10 @@ class HandMPC:
         width = float(np.linalg.norm(goal[1] - goal[0]))
         if self.search is not None and self.search.phase != phase:
             self.search = None  # the phase changed while its first plan was searched
-        if self._awaiting is not None and self._awaiting.phase != phase:
-            self._awaiting = None
+        if self.awaiting is not None and self.awaiting.phase != phase:
+            self.awaiting = None
         solved, how, key, load = None, Step.ENDED, (phase, carried is None, goal), (carried, width)
-        if self._awaiting is not None:  # the line's plan wants a route: its SQP from this step on
+        if self.awaiting is not None:  # the line's plan wants a route: its SQP from this step on
             self._route_search(t, ends, carried)
         elif self.search is None and phase != self.phase:  # a new phase: its first plan's search
             self.search = self._phase_search(t, ends, phase, phase_end, carried)
@@ -149,7 +135,7 @@ class HandMPC:
     def _route_search(self, t: float, ends: Ends, carried) -> None:
         """The route's search after a line's plan that is not clean, seeded now; where there is no route, the
         line's plan is taken as of its own step (and steps on: no search)."""
-        awaiting, self._awaiting = self._awaiting, None
+        awaiting, self.awaiting = self.awaiting, None
         assert awaiting is not None
         end = awaiting.t + awaiting.line.T
         seed = route_seed(self.sqp, self.ground, max(end - t, self.spec.min_horizon), ends, carried)
@@ -185,7 +171,7 @@ class HandMPC:
         if not self.obstacles or is_clean(solved, self.sqp.B, self.obstacles):
             return solved, Step.ENDED
         if solved.success:
-            self._awaiting = Awaiting(search.phase, solved, t)
+            self.awaiting = Awaiting(search.phase, solved, t)
             return solved, Step.RUNNING
         seed = route_seed(self.sqp, self.ground, T, ends, carried)
         if seed is None:
@@ -239,7 +225,7 @@ class HandMPC:
         if left <= remaining:
             return remaining
         velocity = np.r_[state.velocities.ravel(), state.heading_rate]
-        least = RETIME_MARGIN * retimed(C, velocity, self._speeds, self._accelerations)
+        least = RETIME_MARGIN * retimed(C, velocity, self.sqp.speeds, self.sqp.accelerations)
         return min(left, max(remaining, least))
 
     def horizon(self, ends: Ends, remaining: float) -> float:
@@ -253,8 +239,8 @@ class HandMPC:
             np.r_[state.positions.ravel(), state.heading],
             np.r_[state.velocities.ravel(), state.heading_rate],
             np.r_[goal.ravel(), heading],
-            self._speeds,
-            self._accelerations,
+            self.sqp.speeds,
+            self.sqp.accelerations,
             self.M,
         )
         if meets(T, *curves):

@@ -96,7 +96,7 @@ class HandSQP:
         """The speed and acceleration bounds per curve (7,) of the plans from now on."""
         n1, n2 = self._differences
         self._rate_limits = np.r_[np.repeat(speeds, n1), np.repeat(accelerations, n2)][self.keep]
-        self._accelerations = np.asarray(accelerations, dtype=float)
+        self.speeds, self.accelerations = speeds, np.asarray(accelerations, dtype=float)
 
     @property
     def path(self) -> str:
@@ -155,7 +155,7 @@ class HandSQP:
         by the measured velocity) at the acceleration bound leaves at each hodograph point: bounds that tighten
         below the hands' speed (a slower carry) slow the plan as fast as they allow, and the QP stays feasible."""
         n = self.M - 1
-        brake = start[self._speed_curve] - self._speed_column * self._accelerations[self._speed_curve] * T**2 / (n - 1)
+        brake = start[self._speed_curve] - self._speed_column * self.accelerations[self._speed_curve] * T**2 / (n - 1)
         np.maximum(limit[self._speed_rows], brake, out=brake)
         limit[self._speed_rows] = brake
 
