@@ -92,7 +92,7 @@ def test_only_the_blocked_groups_phases_get_a_chest_posture():
     assert [sorted(names[i] for i in p.phases) for p in references.stance_plan.postures] == [sorted(names[5:])]
     scenario, _, references = _references(*BLOCKED_GRIP)
     assert [sorted(names[i] for i in p.phases) for p in references.stance_plan.postures] == [sorted(names[:5])]
-    assert references.vias == {}  # its way in is an approach: no route point (test_stance_pose.py)
+    assert references.stance_plan.vias == {}  # its way in is an approach: no route point (test_stance_pose.py)
     assert references.stance_plan.chest(6, _hands([6.1, 0.0]), np.zeros(2)) is None  # the place: not blocked here
 
 

@@ -103,7 +103,7 @@ def test_a_place_with_no_room_even_inside_the_margin_gets_no_pose_no_route_point
     robot = robot_of(scenario, PAPER.parent)
     assert stance_poses(scenario, robot, *_place(scenario, robot), first=True) == []
     references = Planner(robot, scenario)
-    assert references.vias == {}
+    assert references.stance_plan.vias == {}
     assert [w for w in references.warnings if w.startswith("stance: no base pose found")] == [
         "stance: no base pose found, clear of the scene (obstacles' margins down to 0.05 m; the trunk out from under "
         "table tops), from which the hands reach phases carry to retreat at the box's goal (8 starts searched; not a "
@@ -140,11 +140,13 @@ def test_pybullet_sees_the_waist_inside_the_table_top_at_the_trunkless_pose_and_
 
 def test_only_a_blocked_stance_routes_its_first_phase_through_a_pose_that_clears():
     scenario = load_scenario(PAPER)
-    assert Planner(robot_of(scenario, PAPER.parent), scenario).vias == {}
+    assert Planner(robot_of(scenario, PAPER.parent), scenario).stance_plan.vias == {}
     scenario = load_scenario(PAPER, BLOCKED)
     references = Planner(robot_of(scenario, PAPER.parent), scenario)
-    assert [scenario.task.phases[i].name for i in references.vias] == ["carry"]
-    assert np.linalg.norm(references.vias[5] - [4.5, 0.2]) > 0.6 + 0.3  # outside the cylinder and its margin
+    assert [scenario.task.phases[i].name for i in references.stance_plan.vias] == ["carry"]
+    assert (
+        np.linalg.norm(references.stance_plan.vias[5] - [4.5, 0.2]) > 0.6 + 0.3
+    )  # outside the cylinder and its margin
 
 
 def test_a_blocked_grip_reached_through_an_approach_phase_gets_no_route_point():
@@ -152,7 +154,7 @@ def test_a_blocked_grip_reached_through_an_approach_phase_gets_no_route_point():
     # point to pass (routed through it, none of the study's blocked grips gained)
     scenario = load_scenario(PAPER, ["world.obstacles.cylinder.position=[3.2,1.6,1.0]"])
     references = Planner(robot_of(scenario, PAPER.parent), scenario)
-    assert references.stances[0].warning() is not None and references.vias == {}
+    assert references.stances[0].warning() is not None and references.stance_plan.vias == {}
 
 
 def test_the_pose_found_faces_the_pads_across_the_targets_whatever_the_robot_s_start_yaw():

@@ -55,7 +55,6 @@ class Planner:
         self.stances = written_stances(scenario, robot, hands, offset)
         self.stance_plan = stance_plan(scenario, robot, self.stances, offset)  # vias and chest postures
         self.late: set[int] = set()  # the phases that have waited for their goal (and re-planned once)
-        self.vias = self.stance_plan.vias
         self.warnings += [
             f"{no_pose(stance, bool(scenario.robot.trunk), len(STARTS))}: the robot may not get there"
             for stance in self.stance_plan.unplaced
@@ -83,7 +82,7 @@ class Planner:
         replanned = False
         if self.phase is None or active.index != self.phase.index:
             self.phase, self.goal = active, self._goal(t, obs, active)
-            self.planner.via = self.vias.get(active.index)
+            self.planner.via = self.stance_plan.vias.get(active.index)
         elif self.schedule.waited[active.index] > 0.0 and active.index not in self.late:
             replanned = self._replan_late(t, obs, active)
         holding = self.schedule.holding(t)
