@@ -81,8 +81,7 @@ class CompiledMargins:
         kinds = sorted({bool(r) for r in base._round})
         self._code = {r: Compiling(margin_function(base, r).map("map", "serial", samples, [3], [])) for r in kinds}
         self._f: dict[bool, Buffered] = {}
-        halves = base._halves.reshape(-1, 2)
-        self._shapes = np.column_stack([np.cos(base._yaws), np.sin(base._yaws), halves, base._clearances])
+        self._shapes = np.column_stack([np.cos(base._yaws), np.sin(base._yaws), base._halves, base._clearances])
 
     def load(self, round_: bool) -> Buffered:
         """A kind's compiled code (the first call waits for gcc)."""
