@@ -3,7 +3,9 @@ retreat: its hands neither hold the box nor work at it) is a staging pose the sc
 box; where the box is drawn near an obstacle, that pose can lie inside the obstacle's margin, where the whole-body
 MPC's hard clearance rows never let a hand go: the phase waits out its time 0.1-0.3 m short and the base arrives
 where the written pose put it, against the obstacle (in the randomised study, every run that failed this way). The
-pair of hands is moved rigidly, in plan view, by the smallest shift that clears every standing obstacle."""
+pair of hands is moved rigidly, in plan view, by the smallest shift that clears every standing obstacle. A goal
+still inside a margin (another phase's, one no shift clears, a moving obstacle's) is kept: the task-space planner
+lowers that obstacle's clearance to just below the goal's own distance (goal_reliefs)."""
 
 from __future__ import annotations
 
@@ -38,3 +40,24 @@ def cleared(goal: np.ndarray, obstacles: list[Obstacle]) -> tuple[np.ndarray, fl
     first = ok[ok // DIRECTIONS == ok[0] // DIRECTIONS]  # the shortest clear shifts (shifts go ring by ring)
     best = first[np.argmax(worst[first])]
     return moved[best], float(np.hypot(*shifts[best])), inside[0]
+
+
+GOAL_INSIDE = 5e-3  # [m] how far inside the goal's own distance a lowered clearance is kept
+
+
+def goal_reliefs(obstacles: list[Obstacle], goal: np.ndarray, end: float, carried: tuple[float, float] | None):
+    """Per obstacle where it is at time `end`, how much its clearance must drop for the phase's `goal` (2, 3) hands
+    and the object carried between them (its radius and drop below the hands) to meet it, plus GOAL_INSIDE (0
+    where the goal is clear). An author may put a goal within an obstacle's margin (the margin is a preference, the
+    obstacle is not): the plan still ends there and keeps as far away as the goal allows on its way; the whole-body
+    MPC keeps its own margins."""
+    reliefs = np.zeros(len(obstacles))
+    for i, obstacle in enumerate(obstacles):
+        moved = 0.0 if obstacle.motion is None else obstacle.motion(np.array([end]))[0] - obstacle.shape.centre
+        margin = obstacle.shape.distance(goal - moved)[0].min() - obstacle.clearance
+        if carried is not None:
+            point = goal.mean(axis=0) - [0.0, 0.0, carried[1]]
+            distance = obstacle.shape.grown(carried[0]).distance(point[None] - moved)[0][0]
+            margin = min(margin, distance - obstacle.clearance)
+        reliefs[i] = GOAL_INSIDE - margin if margin < 0.0 else 0.0
+    return reliefs

@@ -22,11 +22,11 @@ import numpy as np
 
 from harmony_cli.maths.bezier import shift_matrix
 from harmony_cli.mpc.problem import NoPlanToHold
+from harmony_cli.planning.clear_goal import goal_reliefs
 from harmony_cli.planning.hand_plan import Ends, HandState, Obstacle, Outcome, Plan, PlannerResult, Solved
 from harmony_cli.planning.hand_sqp import HandSQP
-from harmony_cli.planning.phase_start import Awaiting, Search, Step, route_seed
+from harmony_cli.planning.phase_start import Awaiting, Search, Step, is_clean, route_seed
 from harmony_cli.planning.plan_base import PlannedBase
-from harmony_cli.planning.plan_checks import goal_reliefs, is_clean
 from harmony_cli.planning.plan_horizon import least_horizon, meets, retimed
 from harmony_cli.planning.plan_seed import Ground, straight_to, warm_outlines
 

@@ -20,10 +20,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from harmony_cli.planning.hand_plan import SHORT
 from harmony_cli.planning.plan_seed import fix_ends, moved_onto, route_around, straight_to
 
 if TYPE_CHECKING:
-    from harmony_cli.planning.hand_plan import Ends, Solved
+    from harmony_cli.planning.hand_plan import Ends, Obstacle, Solved
     from harmony_cli.planning.hand_sqp import HandSQP
     from harmony_cli.planning.plan_seed import Ground
 
@@ -71,3 +72,24 @@ def route_seed(sqp: HandSQP, ground: Ground | None, T: float, ends: Ends, carrie
     C = straight_to(ends, sqp.M)
     fix_ends(C, *ends, T)
     return moved_onto(C, route, sqp.B, sqp.s, sqp.free, sqp.fit)
+
+
+BETWEEN = np.array([0.25, 0.5, 0.75])  # fractions of the way from hand 0 to hand 1 checked for an obstacle
+CLEARANCE_SLACK = 5e-3  # [m] predicted clearance shortfall tolerated in a phase's first plan
+BASE_SLACK = 0.02  # [m] the same for the base footprint (carried as at home: the arms may make up the rest)
+
+
+def is_clean(solved: Solved, basis: np.ndarray, obstacles: list[Obstacle]) -> bool:
+    """A phase's first plan that needs no second look: converged, its predicted clearances met (hands, and nearly
+    the base's, no shortfall) and no standing obstacle between the hands at a sample (`basis`: (S, M); a local SQP
+    may split them round one)."""
+    if not solved.converged:
+        return False
+    curves = solved.C[:6] @ basis.T
+    hands = curves.reshape(2, 3, -1).transpose(0, 2, 1)  # (hand, sample, xyz)
+    between = (hands[0] + BETWEEN[:, None, None] * (hands[1] - hands[0])).reshape(-1, 3)
+    for obstacle in obstacles:
+        if obstacle.motion is None and obstacle.shape.distance(between)[0].min() < 0.0:
+            return False
+    clear = solved.clearance >= -CLEARANCE_SLACK and solved.shortfall <= SHORT
+    return clear and solved.base_clearance >= -BASE_SLACK
