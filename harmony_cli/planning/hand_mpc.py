@@ -99,11 +99,11 @@ class HandMPC:
             self.awaiting = None
         solved, how, key, load = None, Step.ENDED, (phase, carried is None, goal), (carried, width)
         if self.awaiting is not None:  # the line's plan wants a route: its SQP from this step on
-            self._route_search(t, ends, carried)
+            self._route_search(self.awaiting, t, ends, carried)
         elif self.search is None and phase != self.phase:  # a new phase: its first plan's search
             self.search = self._phase_search(t, ends, phase, phase_end, carried)
         if self.search is not None:
-            solved, how = self._search_step(t, ends, load, key)
+            solved, how = self._search_step(self.search, t, ends, load, key)
             if how is Step.RUNNING:
                 return self._holding(t, state, solved, time.perf_counter() - start_time)
         if solved is None or how is Step.LINE_TAKEN:  # a later plan: the plan taken steps on
@@ -132,11 +132,10 @@ class HandMPC:
             return Search(phase, seed, t + T, self.spec.phase_iterations, routed=True, via=True)
         return Search(phase, straight_to(ends, self.M), t + T, self.spec.phase_iterations)
 
-    def _route_search(self, t: float, ends: Ends, carried) -> None:
+    def _route_search(self, awaiting: Awaiting, t: float, ends: Ends, carried) -> None:
         """The route's search after a line's plan that is not clean, seeded now; where there is no route, the
         line's plan is taken as of its own step (and steps on: no search)."""
-        awaiting, self.awaiting = self.awaiting, None
-        assert awaiting is not None
+        self.awaiting = None
         end = awaiting.t + awaiting.line.T
         seed = route_seed(self.sqp, self.ground, max(end - t, self.spec.min_horizon), ends, carried)
         if seed is not None:
@@ -144,13 +143,12 @@ class HandMPC:
         else:
             self._take(awaiting.line, awaiting.phase, awaiting.t)
 
-    def _search_step(self, t: float, ends: Ends, load: tuple, key: tuple) -> tuple[Solved, Step]:
+    def _search_step(self, search: Search, t: float, ends: Ends, load: tuple, key: tuple) -> tuple[Solved, Step]:
         """This step's share of the search's SQP and how it ended. A line's plan is taken when it is clean; when
         it is not, the route's SQP starts on the next step (at once when the line's QP failed) and the route's
         plan is taken if its QP does not fail, else the line's; a point to pass that no route reaches starts the
         line's SQP at once."""
-        search, (carried, width) = self.search, load
-        assert search is not None
+        carried, width = load
         T = max(search.end - t, self.spec.min_horizon)
         self._reliefs(key, search.end, carried)
         share = min(self.spec.step_iterations, search.left)  # this step's QPs, taken from what is left
@@ -162,7 +160,7 @@ class HandMPC:
         self.search = None
         if search.routed and not solved.success and search.via:  # no way through the point: the line's SQP
             self.search = Search(search.phase, straight_to(ends, self.M), search.end, self.spec.phase_iterations)
-            return self._search_step(t, ends, load, key)
+            return self._search_step(self.search, t, ends, load, key)
         if search.routed:
             if solved.success or search.line is None:
                 return solved, Step.ENDED
@@ -177,7 +175,7 @@ class HandMPC:
         if seed is None:
             return solved, Step.ENDED
         self.search = Search(search.phase, seed, search.end, self.spec.phase_iterations, routed=True)
-        routed, how = self._search_step(t, ends, load, key)
+        routed, how = self._search_step(self.search, t, ends, load, key)
         return (solved if how is Step.ENDED and not routed.success else routed), how
 
     def _later_step(self, t: float, state: HandState, ends: Ends, phase_end: float, load: tuple, key) -> Solved:
