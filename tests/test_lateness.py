@@ -14,6 +14,7 @@ from typer.testing import CliRunner
 from harmony_cli.cli import app
 from harmony_cli.report.metrics import phase_outcomes
 from harmony_cli.scenario import load_scenario
+from harmony_cli.tasks.schedule import Schedule
 
 DT = 0.1
 HANDS = ["left", "right"]
@@ -112,3 +113,24 @@ def test_a_waiting_phase_presses_its_goal_harder_from_its_wait_s_first_second_on
     assert (pressed["task_weight"] == scenario.mpc.weights.late_task).all() and len(pressed) > 0
     assert waiting["task_weight"].is_monotonic_increasing and waiting["task_weight"].iloc[0] > 1.0
     assert (steps["task_weight"][steps["phase"] == "approach"] == 1.0).all()
+
+
+def _stalls(scenario, retried: bool) -> tuple[list[float], float]:
+    """box_lift's schedule stepped with the hands never at any goal: when its first phase (raise, 3 s) stalled
+    (the step its wait ran out at), retried once at its first stall when `retried`, and how long it waited."""
+    schedule, dt, times = Schedule(scenario.task, tuple(HANDS)), 0.02, []
+    for step in range(round(15.0 / dt)):
+        t = step * dt
+        if schedule.stalled(t, dt, 0.2) == 0:
+            times.append(t)
+            if retried and len(times) == 1:
+                schedule.retry(0)
+        schedule.wait(t, dt, 0.2)
+    return times, float(schedule.waited[0])
+
+
+def test_a_stalled_phase_retried_once_waits_its_duration_again_and_then_stalls_for_good(scenario):
+    once, waited_once = _stalls(scenario, retried=False)
+    twice, waited_twice = _stalls(scenario, retried=True)
+    assert once == pytest.approx([6.0], abs=0.03) and waited_once == pytest.approx(3.0)
+    assert twice == pytest.approx([6.0, 9.0], abs=0.03) and waited_twice == pytest.approx(6.0)

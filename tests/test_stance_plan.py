@@ -17,6 +17,7 @@ from harmony_cli.planning.stance_plan import (
     STANCE_BLEND,
     ChestRamp,
     Posture,
+    StancePlan,
     pivot_targets,
 )
 from harmony_cli.planning.stance_pose import POSITION_TOL, stance_poses
@@ -133,3 +134,14 @@ def test_a_chest_turned_under_a_held_box_turns_back_at_the_held_rate():
         refs.append(ref[0, 0])
         t += dt
     assert np.abs(np.diff(refs)).max() <= 0.1 * dt + 1e-12 and t == pytest.approx(0.3 / 0.1, abs=2 * dt)
+
+
+def test_a_stalled_phases_posture_comes_first_for_it_alone_and_its_reliefs_are_the_larger_per_obstacle():
+    group = _posture()  # phase 5's, with its group
+    plan = StancePlan({}, [group], [], {5: np.array([0.1, 0.0]), 6: np.array([0.1, 0.0])})
+    mine = Posture(frozenset({5}), np.ones(2), np.array([[0.5, 0.5, 0.0]]), np.array([[0.3]]))
+    recovered = plan.recovered(mine, np.array([0.05, 0.2]))
+    assert recovered.postures == [mine, group] and plan.postures == [group]
+    assert recovered.chest(5, _hands([1.0, 1.0]), np.zeros(2))[0, 0] == 0.3
+    np.testing.assert_array_equal(recovered.reliefs[5], [0.1, 0.2])
+    np.testing.assert_array_equal(recovered.reliefs[6], [0.1, 0.0])

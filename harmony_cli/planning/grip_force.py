@@ -23,8 +23,15 @@ second."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+from harmony_cli.robot.model import Robot
+from harmony_cli.tasks.as_written import target_position
+
+if TYPE_CHECKING:
+    from harmony_cli.scenario.models import Scenario
 
 GRAVITY = 9.81
 RISE, FALL = 50.0, 5.0  # [N/s] the most the squeeze reference rises and falls per second
@@ -108,3 +115,23 @@ class GripForce:
         grip = np.array([horizontal, horizontal, vertical] * 2 + [yaw])
         held = np.clip(grip, LEAST * accelerations, accelerations)
         return self.pace * speeds, held
+
+
+def grip_of(scenario: Scenario, width: float) -> GripForce | None:
+    """The squeeze and the carry's bounds while the box is held with the pads `width` [m] apart (None: no box, no
+    admittance loop, or a zero margin)."""
+    box, a = scenario.world.box, scenario.admittance
+    if box is None or not a.enabled or a.grip_margin <= 0.0:
+        return None
+    size = (float(box.size[0]), float(box.size[1]))
+    law = GripLaw(box.assumed_mass, size, width, box.friction, a.grip_margin, a.grip_scale, a.force_filter)
+    return GripForce(law, scenario.sim.control_dt)
+
+
+def grip_width(scenario: Scenario, robot: Robot, hands: np.ndarray) -> float:
+    """[m] the hands' distance apart in the grasp phase as written (at home without one)."""
+    assert scenario.task is not None
+    grasp = next((p for p in scenario.task.phases if p.grasp), None)
+    ends = [] if grasp is None else [target_position(grasp.hands.get(h), scenario) for h in robot.hand_names]
+    pair = [e for e in ends if e is not None]
+    return float(np.linalg.norm(pair[1] - pair[0]) if len(pair) == 2 else np.linalg.norm(hands[1] - hands[0]))

@@ -11,14 +11,14 @@ import numpy as np
 from harmony_cli.maths.rotations import heading_of
 from harmony_cli.maths.shapes import table_shape, table_top_pose
 from harmony_cli.planning.clear_goal import FARTHEST, cleared
-from harmony_cli.planning.grip_force import GripForce, GripLaw
+from harmony_cli.planning.grip_force import grip_of, grip_width
 from harmony_cli.planning.hand_mpc import HandMPC
 from harmony_cli.planning.hand_plan import HandState, Motion, Outcome, PlannerResult, planned_obstacles
 from harmony_cli.planning.hand_sqp import rate_bounds
 from harmony_cli.planning.plan_base import PlannedBase
 from harmony_cli.planning.plan_seed import Ground
 from harmony_cli.planning.stance_check import base_bodies, home_hands, no_pose, written_stances
-from harmony_cli.planning.stance_plan import NEAR, ChestRamp, stance_plan
+from harmony_cli.planning.stance_plan import NEAR, ChestRamp, stalled_posture, stance_plan
 from harmony_cli.planning.stance_pose import STARTS
 from harmony_cli.robot.model import Robot
 from harmony_cli.robot.observation import Observation
@@ -47,7 +47,7 @@ class Planner:
         # `motions`: per obstacle, what predicts it (absolute times -> centres); None: the scripted motions
         obstacles = planned_obstacles(scenario.world.obstacles, scenario.planner.hand_radius, motions)
         base, ground = _footprint(scenario, robot.home[list(robot.base_joints)], hands, motions)
-        width = _grip_width(scenario, robot, hands)
+        width = grip_width(scenario, robot, hands)
         self.ceiling = hand_ceiling(robot, width)
         self.warnings = _above(scenario, robot.hand_names, self.ceiling, width)
         self.planner = HandMPC(scenario.planner, obstacles, self.home_rotations, offset, ground, base, self.ceiling)
@@ -61,13 +61,15 @@ class Planner:
         ]
         self.base_xy = list(robot.base_joints[:2])  # where the base stands picks a chest posture (stance_plan.py)
         self.chest = [robot.index(j) for j in scenario.robot.chest_joints]
+        self.robot, self.heading_offset, self.base_pose = robot, offset, list(robot.base_joints)
+        self.restanced: set[int] = set()  # the phases that stalled and searched a stance of their own (once each)
         # the chest turns no faster than the hands, and slower under a held box
         self.chest_ramp = ChestRamp(scenario.planner.max_yaw_rate, scenario.planner.held_chest_rate)
         self.table_poses = {t.name: table_top_pose(t) for t in scenario.world.tables}
         box = scenario.world.box
         self.box_radius = 0.5 * float(np.hypot(box.size[0], box.size[1])) if box else None
         self.box_drop: float | None = None  # the box's bottom below the hands' midpoint, measured at the grasp
-        self.grip = _grip(scenario, width)
+        self.grip = grip_of(scenario, width)
         self.rates = rate_bounds(scenario.planner)  # the hands' speed and acceleration bounds, box held or not
         self.phase: ActivePhase | None = None
         self.goal = np.zeros(0)  # hand goals of the current phase (hands, 3)
@@ -75,9 +77,14 @@ class Planner:
         self.step_count = 0
 
     def plan(self, t: float, obs: Observation, knot_times: np.ndarray) -> HandTargets:
+        restanced = False
         if self.phase is not None:  # a phase whose goal is not reached waits (schedule.py)
             error = float(np.linalg.norm(obs.hand_positions - self.goal, axis=1).max())
-            self.schedule.wait(t, self.scenario.sim.control_dt, error)
+            dt = self.scenario.sim.control_dt
+            stalled = self.schedule.stalled(t, dt, error)
+            if stalled is not None and stalled not in self.restanced:
+                restanced = self._recover(t, obs)
+            self.schedule.wait(t, dt, error)
         active = self.schedule.at(t)
         replanned = False
         if self.phase is None or active.index != self.phase.index:
@@ -92,11 +99,12 @@ class Planner:
             "holding": holding,
             "delay_s": self.schedule.delay,
             "replanned": replanned,
+            "restanced": restanced,
         }
         # what the hands were asked to be at now (the plan restarts from the measurement)
         now = None if self.result is None else self.result.plan.sample(np.array([t]))[0][0]
         result = self.result
-        if self.step_count % self.scenario.planner.period == 0 or result is None or replanned:
+        if self.step_count % self.scenario.planner.period == 0 or result is None or replanned or restanced:
             result = self.result = self._replan(t, obs, active, holding)
             log |= {
                 "planner_ms": 1e3 * result.solve_time,
@@ -159,6 +167,21 @@ class Planner:
             return False
         self.goal = self._goal(t, obs, active)
         self.planner.phase = None
+        return True
+
+    def _recover(self, t: float, obs: Observation) -> bool:
+        """The phase at t, as it would give up stalled: a stance for its goal as it is now (stalled_posture) and,
+        when one is found, its chest posture and reliefs, a fresh plan and the phase's wait again; whether found."""
+        active = self.schedule.at(t)
+        self.restanced.add(active.index)
+        goal = self._goal(t, obs, active)
+        base = obs.q[self.base_pose]
+        found = stalled_posture(self.scenario, self.robot, active.index, goal, self.heading_offset, base)
+        if found is None:
+            return False
+        self.stance_plan = self.stance_plan.recovered(*found)
+        self.goal, self.planner.phase = goal, None
+        self.schedule.retry(active.index)
         return True
 
     def _free_handed(self, goal: np.ndarray, box: np.ndarray | None, t: float) -> bool:
@@ -235,26 +258,6 @@ def _at_width(goal: np.ndarray, width: float) -> np.ndarray:
     large share of the squeeze)."""
     middle, apart = goal.mean(axis=0), goal[1] - goal[0]
     return middle + np.outer([-0.5, 0.5], apart * (width / float(np.linalg.norm(apart))))
-
-
-def _grip(scenario: Scenario, width: float) -> GripForce | None:
-    """The squeeze and the carry's bounds while the box is held with the pads `width` [m] apart (None: no box, no
-    admittance loop, or a zero margin)."""
-    box, a = scenario.world.box, scenario.admittance
-    if box is None or not a.enabled or a.grip_margin <= 0.0:
-        return None
-    size = (float(box.size[0]), float(box.size[1]))
-    law = GripLaw(box.assumed_mass, size, width, box.friction, a.grip_margin, a.grip_scale, a.force_filter)
-    return GripForce(law, scenario.sim.control_dt)
-
-
-def _grip_width(scenario: Scenario, robot: Robot, hands: np.ndarray) -> float:
-    """[m] the hands' distance apart in the grasp phase as written (at home without one)."""
-    assert scenario.task is not None
-    grasp = next((p for p in scenario.task.phases if p.grasp), None)
-    ends = [] if grasp is None else [target_position(grasp.hands.get(h), scenario) for h in robot.hand_names]
-    pair = [e for e in ends if e is not None]
-    return float(np.linalg.norm(pair[1] - pair[0]) if len(pair) == 2 else np.linalg.norm(hands[1] - hands[0]))
 
 
 def _above(scenario: Scenario, hand_names: tuple[str, ...], ceiling: float | None, width: float) -> list[str]:

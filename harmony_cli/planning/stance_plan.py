@@ -20,12 +20,12 @@ Cost: the search's starts, once before the loop (about 2 s with a blocked stance
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from harmony_cli.planning.stance import Stance
-from harmony_cli.planning.stance_pose import stance_poses
+from harmony_cli.planning.stance_pose import STARTS, StancePose, stance_poses
 from harmony_cli.robot.model import Robot
 from harmony_cli.scenario import Scenario
 
@@ -93,6 +93,16 @@ class StancePlan:
         posture = self._posture(phase)
         return None if posture is None else posture.stance(hands, base)
 
+    def recovered(self, posture: Posture, reliefs: np.ndarray | None) -> StancePlan:
+        """This plan with `posture` before every earlier one for its phases (a stalled phase's, stalled_posture)
+        and, where it needs reliefs, the larger of its own and the earlier ones per obstacle."""
+        updated = dict(self.reliefs)
+        for phase in posture.phases:
+            earlier = updated.get(phase)
+            if reliefs is not None:
+                updated[phase] = reliefs if earlier is None else np.maximum(earlier, reliefs)
+        return replace(self, postures=[posture, *self.postures], reliefs=updated)
+
 
 class ChestRamp:
     """The chest reference in time: it never steps. A posture that starts or ends (a blocked group's phases begin
@@ -145,18 +155,47 @@ def stance_plan(scenario: Scenario, robot: Robot, found: list[Stance], heading_o
             if at_pivot[2]:
                 unplaced.append(stance)
             continue
-        least = float(poses[0].reliefs.sum())
-        poses = [pose for pose in poses if float(pose.reliefs.sum()) <= least + RELIEF_SPREAD]
         if at_pivot[2]:
             vias[names.index(stance.phases[0])] = poses[0].base[:2]
         phases = frozenset(names.index(n) for n in stance.phases)
-        if least > 0.0:
-            needed = np.max([pose.reliefs for pose in poses], axis=0)
-            reliefs |= dict.fromkeys(phases, np.where(needed > 0.0, needed + RELIEF_SPARE, 0.0))
-        bases = np.array([pose.base for pose in poses])
-        chests = np.array([np.median(pose.joints[:, chest], axis=0) for pose in poses]).reshape(len(poses), -1)
-        postures.append(Posture(phases, stance.pivot_position[:2], bases, chests))
+        posture, needed = posture_of(poses, phases, stance.pivot_position[:2], chest)
+        if needed is not None:
+            reliefs |= dict.fromkeys(phases, needed)
+        postures.append(posture)
     return StancePlan(vias, postures, unplaced, reliefs, bool(chest))
+
+
+def posture_of(
+    poses: list[StancePose], phases: frozenset[int], pivot: np.ndarray, chest: list[int]
+) -> tuple[Posture, np.ndarray | None]:
+    """The posture of `phases` at `pivot` (2,) from the `poses` found there (least relief first): those that go no
+    further into a margin than the least does by RELIEF_SPREAD; and the reliefs its phases need (None: none), the
+    most any of them needs, with RELIEF_SPARE (`chest`: the chest joints' indices)."""
+    least = float(poses[0].reliefs.sum())
+    poses = [pose for pose in poses if float(pose.reliefs.sum()) <= least + RELIEF_SPREAD]
+    needed = None
+    if least > 0.0:
+        most = np.max([pose.reliefs for pose in poses], axis=0)
+        needed = np.where(most > 0.0, most + RELIEF_SPARE, 0.0)
+    bases = np.array([pose.base for pose in poses])
+    chests = np.array([np.median(pose.joints[:, chest], axis=0) for pose in poses]).reshape(len(poses), -1)
+    return Posture(phases, pivot, bases, chests), needed
+
+
+def stalled_posture(
+    scenario: Scenario, robot: Robot, phase: int, goal: np.ndarray, heading_offset: float, base: np.ndarray
+) -> tuple[Posture, np.ndarray | None] | None:
+    """A stalled `phase`'s own posture at its hands' `goal` (2, 3) now, and the reliefs it needs (posture_of), from
+    a stance search whose first start turns the base as the measured `base` pose (x, y, yaw) stands; None when no
+    start converged. The group's stance serves its phases at once from the box as written: a phase that waited its
+    whole wait in vain is held short by it (where the base stands, how the chest turns), not by its plan."""
+    across = goal[1] - goal[0]
+    heading = float(np.arctan2(across[1], across[0])) + heading_offset
+    turn = (float(base[2]) - float(robot.home[robot.base_joints[2]]) - heading + np.pi) % (2 * np.pi) - np.pi
+    starts = ((float(np.rad2deg(turn)), 1.0), *STARTS)
+    poses = stance_poses(scenario, robot, goal[None], np.array([heading]), starts=starts)
+    chest = [robot.index(j) for j in scenario.robot.chest_joints]
+    return posture_of(poses, frozenset({phase}), goal.mean(axis=0)[:2], chest) if poses else None
 
 
 def pivot_targets(stance: Stance, heading_offset: float) -> tuple[np.ndarray, np.ndarray, bool] | None:

@@ -108,6 +108,8 @@ def phase_outcomes(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) ->
     (moved by the earlier phases' waits; tasks/schedule.py); `late_s`, how late it ended, which is that wait (a
     wait lasts until the goal is reached, at most the phase's own duration); `replanned_s`, when it re-planned
     as it started to wait (planning/planner.py; None: it never waited, or waited with the box held);
+    `restanced_s`, when it re-planned its stance as it would have given up (planning/planner.py; None: it did
+    not);
     `timed_out`: it waited and its goal was still not reached at its last step (the next phase started without
     it): it stalled, and the run fails."""
     phases = []
@@ -118,6 +120,7 @@ def phase_outcomes(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) ->
         reached = steps["t"][at_goal]
         waited = float(np.ptp(steps["delay_s"][rows])) if rows.any() and "delay_s" in steps else 0.0
         replanned = rows & steps["replanned"].astype(bool) if "replanned" in steps else rows & False
+        restanced = rows & steps["restanced"].astype(bool) if "restanced" in steps else rows & False
         phases.append(
             {
                 "name": phase.name,
@@ -127,6 +130,7 @@ def phase_outcomes(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) ->
                 "waited_s": waited,
                 "late_s": waited,
                 "replanned_s": float(steps["t"][replanned].min()) if replanned.any() else None,
+                "restanced_s": float(steps["t"][restanced].min()) if restanced.any() else None,
                 "timed_out": bool(waited > 0 and not at_goal[rows].iloc[-1]),
             }
         )

@@ -189,8 +189,9 @@ def _stalled_phase(task: dict) -> tuple[int, dict]:
 
 
 def _stall(phase: dict) -> str:
-    replanned = phase.get("replanned_s")
+    replanned, restanced = phase.get("replanned_s"), phase.get("restanced_s")
     again = f", re-planned at t = {replanned:.2f} s" if replanned is not None else ""
+    again += f", its stance re-planned at t = {restanced:.2f} s" if restanced is not None else ""
     away = f"{phase['final_goal_error_m']:.2f} m" if phase.get("final_goal_error_m") is not None else "?"
     return (
         f"phase {phase['name']} stalled: its goal not reached after waiting {phase['waited_s']:.1f} s{again} "

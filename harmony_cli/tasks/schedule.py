@@ -1,5 +1,6 @@
 """The phase schedule: which phase runs at time t, and its hand goals (fixed when the phase starts). A phase whose
-hands have not reached their goal when it would end waits for them, at most its own duration again."""
+hands have not reached their goal when it would end waits for them, at most its own duration again (twice that
+after a stall's recovery)."""
 
 from __future__ import annotations
 
@@ -32,6 +33,7 @@ class Schedule:
         self.ends = np.cumsum([p.duration for p in task.phases])
         self.duration = float(self.ends[-1])  # as written, without waits
         self.waited = np.zeros(len(task.phases))  # [s] per phase, how long it waited for its goal
+        self.allowed = np.array([p.duration for p in task.phases], dtype=float)  # [s] the most it may wait
         self.admittance = admittance if admittance is not None else AdmittanceSpec()
 
     def force(self, times: np.ndarray) -> np.ndarray:
@@ -62,14 +64,29 @@ class Schedule:
         phase about to end with its goal not reached lasts dt longer (every later phase moves with it), until it
         has waited its own duration. A robot that lags (a detour, a base that had to go round) then still grasps
         where the box is instead of closing on air; one that never arrives goes on as written after the wait."""
+        i = self._lagging(t, dt, goal_error)
+        if i is not None and self.waited[i] + dt <= self.allowed[i] + 1e-9:
+            self.ends[i:] += dt
+            self.waited[i] += dt
+
+    def stalled(self, t: float, dt: float, goal_error: float) -> int | None:
+        """The phase at t if it ends at this step with its goal not reached and its wait used up (None if not)."""
+        i = self._lagging(t, dt, goal_error)
+        return i if i is not None and self.waited[i] + dt > self.allowed[i] + 1e-9 else None
+
+    def retry(self, index: int) -> None:
+        """Phase `index` may wait its own duration once more (a stall's recovery: planning/planner.py)."""
+        self.allowed[index] += self.phases[index].duration
+
+    def _lagging(self, t: float, dt: float, goal_error: float) -> int | None:
+        """The phase at t, when t is its last step and its hands are `goal_error` [m] from its goal, short of it
+        (None otherwise; the last phase never waits)."""
         active = self.at(t)
         i, phase = active.index, active.spec
         ending = active.end - t < 1.5 * dt  # t is its last step (half a step for the sums' rounding)
         if i == len(self.phases) - 1 or not ending or goal_error < REACHED + phase.squeeze / 2:
-            return
-        if self.waited[i] + dt <= phase.duration + 1e-9:
-            self.ends[i:] += dt
-            self.waited[i] += dt
+            return None
+        return i
 
     def at(self, t: float) -> ActivePhase:
         i = min(int(np.searchsorted(self.ends, t, side="right")), len(self.phases) - 1)
