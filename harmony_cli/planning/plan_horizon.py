@@ -33,40 +33,29 @@ def _profiles(m: int) -> tuple[np.ndarray, ...]:
 def least_horizon(start: np.ndarray, velocity: np.ndarray, goal: np.ndarray, speed, acceleration, M: int) -> float:
     """The least horizon [s] at which a plan of one of the shapes from `start` (curves,) moving at `velocity`
     (curves,) to `goal` (curves,) at rest meets |speed| <= `speed` and |acceleration| <= `acceleration` (curves,)
-    at every hodograph control point (0 when any T does; inf when none does)."""
-    return min(_needed(w, start, velocity, goal, speed, acceleration, M) for w in _profiles(M - 4))
+    at every hodograph control point (0 when any T does; inf when none does): per shape, the largest root."""
+    shapes = (_terms(w, start, velocity, goal, speed, acceleration, M) for w in _profiles(M - 4))
+    roots = ([(_linear if j == 1 else _quadratic)(a, b, g) for a, b, g, j in bounds] for bounds in shapes)
+    return min(float(np.max(np.concatenate(r), initial=0.0)) for r in roots)
 
 
 def meets(T: float, start: np.ndarray, velocity: np.ndarray, goal: np.ndarray, speed, acceleration, M: int) -> bool:
     """Whether a plan of one of the shapes over horizon `T` meets every bound."""
-    return any(_fits(w, T, start, velocity, goal, speed, acceleration, M) for w in _profiles(M - 4))
+    shapes = (_terms(w, start, velocity, goal, speed, acceleration, M) for w in _profiles(M - 4))
+    return any(all(np.all(np.abs(a + b * T) <= g * T**j + 1e-12) for a, b, g, j in bounds) for bounds in shapes)
 
 
-def _terms(w: np.ndarray, start, velocity, goal, M: int):
-    """The bounds' (alpha, beta) per curve, d = alpha + beta T scaled: speed n max(w) d, acceleration between
-    n (n - 1) max|dw| d, at column 0 n (n - 1) (w_1 d - v0 T / n)."""
+def _terms(w: np.ndarray, start, velocity, goal, speed, acceleration, M: int):
+    """The bounds per curve as (alpha, beta, gamma, j), each |alpha + beta T| <= gamma T^j with d = alpha + beta T
+    scaled: speed n max(w) d (j = 1), acceleration between n (n - 1) max|dw| d and at column 0
+    n (n - 1) (w_1 d - v0 T / n) (j = 2)."""
     n, W = M - 1, w.sum()
     d0, d1 = (goal - start) / W, -velocity / (n * W)  # d = d0 + d1 T
     steps = np.abs(np.diff(np.r_[w, 0.0])).max()
     return (
-        (n * w.max() * d0, n * w.max() * d1),
-        (n * (n - 1) * steps * d0, n * (n - 1) * steps * d1),
-        (n * (n - 1) * w[0] * d0, n * (n - 1) * (w[0] * d1 - velocity / n)),
-    )
-
-
-def _needed(w, start, velocity, goal, speed, acceleration, M: int) -> float:
-    (s0, s1), (a0, a1), (f0, f1) = _terms(w, start, velocity, goal, M)
-    roots = [_linear(s0, s1, speed), _quadratic(a0, a1, acceleration), _quadratic(f0, f1, acceleration)]
-    return float(np.max(np.concatenate(roots), initial=0.0))
-
-
-def _fits(w, T: float, start, velocity, goal, speed, acceleration, M: int) -> bool:
-    (s0, s1), (a0, a1), (f0, f1) = _terms(w, start, velocity, goal, M)
-    return bool(
-        np.all(np.abs(s0 + s1 * T) <= speed * T + 1e-12)
-        and np.all(np.abs(a0 + a1 * T) <= acceleration * T**2 + 1e-12)
-        and np.all(np.abs(f0 + f1 * T) <= acceleration * T**2 + 1e-12)
+        (n * w.max() * d0, n * w.max() * d1, speed, 1),
+        (n * (n - 1) * steps * d0, n * (n - 1) * steps * d1, acceleration, 2),
+        (n * (n - 1) * w[0] * d0, n * (n - 1) * (w[0] * d1 - velocity / n), acceleration, 2),
     )
 
 
