@@ -104,16 +104,20 @@ class HandMPC:
             self.search = self._phase_search(t, ends, phase, phase_end, carried)
         if self.search is not None:
             solved, how = self._search_step(self.search, t, ends, load, key)
-            if how is Step.RUNNING:
-                return self._holding(t, state, solved, time.perf_counter() - start_time)
-        if solved is None or how is Step.LINE_TAKEN:  # a later plan: the plan taken steps on
-            solved = self._later_step(t, state, ends, phase_end, load, key)
+        if how is Step.RUNNING:  # the search goes on: the last plan taken, before any the hands held where they are
+            outcome = Outcome.SEARCHING
+            if self.C is None:
+                self.C = np.repeat(np.r_[state.positions.ravel(), state.heading][:, None], self.M, axis=1)
+                self.t_plan, self.T_plan = t, self.spec.min_horizon
+        else:
+            if solved is None or how is Step.LINE_TAKEN:  # a later plan: the plan taken steps on
+                solved = self._later_step(t, state, ends, phase_end, load, key)
+            outcome = solved.outcome
+            if outcome.success and not np.isfinite(solved.C).all():  # NaN / inf is never the plan: the last is held
+                outcome = Outcome.NON_FINITE
+            if outcome.success:
+                self._take(solved, phase, t)
         assert solved is not None  # a phase without a plan taken has a search
-        outcome = solved.outcome
-        if outcome.success and not np.isfinite(solved.C).all():  # NaN / inf never becomes the plan: the last is held
-            outcome = Outcome.NON_FINITE
-        if outcome.success:
-            self._take(solved, phase, t)
         if self.C is None:
             raise NoPlanToHold(f"first planner solve failed ({solved.status}); no plan to hold")
         plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
@@ -204,16 +208,6 @@ class HandMPC:
         if (phase, free, goal.tobytes()) != self._relief_key:
             self.sqp.reliefs = goal_reliefs(self.obstacles, goal, end, carried)
             self._relief_key = (phase, free, goal.tobytes())
-
-    def _holding(self, t: float, state: HandState, solved: Solved, elapsed: float) -> PlannerResult:
-        """While a first plan's search runs: the last plan taken (before any, the hands held where they are)."""
-        if self.C is None:  # the hands held where they are
-            self.C = np.repeat(np.r_[state.positions.ravel(), state.heading][:, None], self.M, axis=1)
-            self.t_plan, self.T_plan = t, self.spec.min_horizon
-        plan = Plan(self.C.copy(), self.t_plan, self.T_plan, self.home_rotations)
-        return PlannerResult(
-            plan, Outcome.SEARCHING, solved.iterations, elapsed, solved.clearance, solved.routed, solved.shortfall
-        )
 
     def _kept_horizon(self, C: np.ndarray, state: HandState, remaining: float, left: float) -> float:
         """A later plan's horizon: the phase's `remaining` time, or, for a plan `left` [s] to run past the phase's
