@@ -15,8 +15,8 @@ the box sideways). It rises at `RISE` N/s at most (the admittance follows a ramp
 The carry's bounds: at the most the pads squeeze, each holds C = mu scale F_written / margin along its face, of
 which the weight takes m g / 2; what is left bounds the box's horizontal acceleration (2 sqrt(C^2 - (m g / 2)^2)
 / m), its vertical one (2 C / m - g) and its yaw acceleration (the pads' opposite tangential forces at half the
-grip's width apart against the box's inertia). And a pace: while the wrists see more than `SLOW` of the friction
-used (halfway between what the margin leaves and sliding), the hands' speed bounds shrink towards `SLOWEST` of
+grip's width apart against the box's inertia). And a pace: while the wrists see more of the friction used than
+`slow` (halfway between what the margin leaves and sliding), the hands' speed bounds shrink towards `SLOWEST` of
 theirs (their acceleration bounds stay the grip's: slowing down needs them); the pace comes back at `RECOVER` per
 second."""
 
@@ -61,11 +61,6 @@ class GripLaw:
         with the margin."""
         return self.margin * max(0.5 * self.mass * GRAVITY, tangential) / self.friction
 
-    @property
-    def slow(self) -> float:
-        """The friction used (as the wrists see it) above which the carry slows."""
-        return 0.5 * (1.0 + 1.0 / self.margin)
-
     def accelerations(self, written: float) -> tuple[float, float, float]:
         """The box's most horizontal and vertical acceleration [m/s^2] and yaw acceleration [rad/s^2] the pads
         hold with the margin when they squeeze their most (`scale` x the `written` force [N])."""
@@ -101,7 +96,8 @@ class GripForce:
         pressing = np.maximum(-wrenches[:, 2], 1e-6)
         self.friction_used = float((tangential / (self.law.friction * pressing)).max())
         self._used += blend * (min(self.friction_used, MOST_USED) - self._used)
-        slowed = float(np.clip((1.0 - self._used) / (1.0 - self.law.slow), SLOWEST, 1.0))
+        slow = 0.5 * (1.0 + 1.0 / self.law.margin)  # the friction used above which the carry slows
+        slowed = float(np.clip((1.0 - self._used) / (1.0 - slow), SLOWEST, 1.0))
         self.pace = min(slowed, self.pace + RECOVER * self.dt)
         wanted = min(max(floor, self.law.needed(self._load)), self.law.scale * floor)
         last = floor if self._force is None else self._force
