@@ -72,14 +72,6 @@ class StanceClass(Enum):
     NO_TURN_CLEARS = "blocked, no turn clears it"
 
 
-def stance_class(found: list[Stance]) -> StanceClass:
-    """The worst of the stances' classes (CLEAR without any)."""
-    blocked = [stance for stance in found if stance.blocked]
-    if any(stance.turn_deg is None for stance in blocked):
-        return StanceClass.NO_TURN_CLEARS
-    return StanceClass.TURN_CLEARS if blocked else StanceClass.CLEAR
-
-
 def stances(
     scenario: Scenario, hand_names: tuple[str, ...], base: tuple[PlannedBase, list[str]], heading_offset: float
 ) -> list[Stance]:

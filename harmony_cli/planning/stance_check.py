@@ -13,7 +13,7 @@ from harmony_cli.maths.shapes import table_legs
 from harmony_cli.mpc.clearance import FLOOR
 from harmony_cli.planning.hand_plan import Motion, Obstacle, planned_obstacles
 from harmony_cli.planning.plan_base import PlannedBase
-from harmony_cli.planning.stance import Stance, StanceClass, stance_class, stances
+from harmony_cli.planning.stance import Stance, StanceClass, stances
 from harmony_cli.planning.stance_plan import pivot_targets
 from harmony_cli.planning.stance_pose import STARTS, stance_poses
 from harmony_cli.robot.model import Robot
@@ -35,8 +35,12 @@ def _standing(scenario: Scenario) -> Scenario:
 
 
 def written_stance_class(scenario: Scenario, robot: Robot) -> StanceClass:
-    """How blocked the scene's written stances are, among the bodies that stand still (stance.StanceClass)."""
-    return stance_class(written_stances(scenario, robot, *home_hands(robot)))
+    """How blocked the scene's written stances are, among the bodies that stand still (stance.StanceClass): the
+    worst of the stances' classes (CLEAR without any)."""
+    blocked = [stance for stance in written_stances(scenario, robot, *home_hands(robot)) if stance.blocked]
+    if any(stance.turn_deg is None for stance in blocked):
+        return StanceClass.NO_TURN_CLEARS
+    return StanceClass.TURN_CLEARS if blocked else StanceClass.CLEAR
 
 
 def unposed(scenario: Scenario, robot: Robot) -> str | None:
