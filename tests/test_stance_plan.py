@@ -94,7 +94,7 @@ def test_only_the_blocked_groups_phases_get_a_chest_posture():
     scenario, _, references = _references(*BLOCKED_GRIP)
     assert [sorted(names[i] for i in p.phases) for p in references.stance_plan.postures] == [sorted(names[:5])]
     assert references.stance_plan.vias == {}  # its way in is an approach: no route point (test_stance_pose.py)
-    assert references.stance_plan.chest(6, _hands([6.1, 0.0]), np.zeros(2)) is None  # the place: not blocked here
+    assert references.stance_plan.posture(6) is None  # the place: not blocked here, no chest posture
 
 
 def test_a_place_reached_only_inside_the_cylinder_s_margin_lowers_that_margin_in_the_place_s_phases_alone():
@@ -142,6 +142,6 @@ def test_a_stalled_phases_posture_comes_first_for_it_alone_and_its_reliefs_are_t
     mine = Posture(frozenset({5}), np.ones(2), np.array([[0.5, 0.5, 0.0]]), np.array([[0.3]]))
     recovered = plan.recovered(mine, np.array([0.05, 0.2]))
     assert recovered.postures == [mine, group] and plan.postures == [group]
-    assert recovered.chest(5, _hands([1.0, 1.0]), np.zeros(2))[0, 0] == 0.3
+    assert recovered.posture(5).chest(_hands([1.0, 1.0]), np.zeros(2))[0, 0] == 0.3
     np.testing.assert_array_equal(recovered.reliefs[5], [0.1, 0.2])
     np.testing.assert_array_equal(recovered.reliefs[6], [0.1, 0.0])

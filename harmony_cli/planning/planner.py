@@ -121,12 +121,12 @@ class Planner:
             if self.grip is not None:
                 force_ref = self.grip(force_ref, obs.wrenches, holding)
                 log |= {"grip_friction_used": self.grip.friction_used, "carry_pace": self.grip.pace}
-        base = obs.q[self.base_xy]
-        target = self.stance_plan.chest(active.index, positions, base)
+        base, posture = obs.q[self.base_xy], self.stance_plan.posture(active.index)
+        target = None if posture is None or not self.chest else posture.chest(positions, base)  # None: straight
         chest_ref = self.chest_ramp(target, t, knot_times, obs.q[self.chest], holding)
         # the base's stance only where its cost is on (mpc.weights.stance): nothing to compute each step otherwise
         pull = self.scenario.mpc.weights.stance > 0.0
-        stance = self.stance_plan.stance(active.index, positions, base) if pull else None
+        stance = posture.stance(positions, base) if pull and posture is not None else None
         reliefs = self.stance_plan.reliefs.get(active.index)
         now = positions[0] if now is None else now
         task_weight = self._task_weight(active.index)

@@ -77,21 +77,11 @@ class StancePlan:
     postures: list[Posture]
     unplaced: list[Stance]  # blocked groups for which no pose was found
     reliefs: dict[int, np.ndarray]  # phase index -> per world obstacle, how far the whole-body MPC's margin drops
-    has_chest: bool = True
 
-    def _posture(self, phase: int) -> Posture | None:
+    def posture(self, phase: int) -> Posture | None:
+        """The first posture of `phase`'s (its chest reference and the base's stance); None outside a blocked group:
+        the chest straight, no stance."""
         return next((p for p in self.postures if phase in p.phases), None)
-
-    def chest(self, phase: int, hands: np.ndarray, base: np.ndarray) -> np.ndarray | None:
-        """The chest reference (chest joints, K) in `phase` (Posture.chest); None (straight) outside a blocked
-        group or for a robot without chest joints."""
-        posture = self._posture(phase)
-        return None if posture is None or not self.has_chest else posture.chest(hands, base)
-
-    def stance(self, phase: int, hands: np.ndarray, base: np.ndarray) -> np.ndarray | None:
-        """The base's stance (4, K) in `phase` (Posture.stance); None outside a blocked group."""
-        posture = self._posture(phase)
-        return None if posture is None else posture.stance(hands, base)
 
     def recovered(self, posture: Posture, reliefs: np.ndarray | None) -> StancePlan:
         """This plan with `posture` before every earlier one for its phases (a stalled phase's, stalled_posture)
@@ -162,7 +152,7 @@ def stance_plan(scenario: Scenario, robot: Robot, found: list[Stance], heading_o
         if needed is not None:
             reliefs |= dict.fromkeys(phases, needed)
         postures.append(posture)
-    return StancePlan(vias, postures, unplaced, reliefs, bool(chest))
+    return StancePlan(vias, postures, unplaced, reliefs)
 
 
 def posture_of(
