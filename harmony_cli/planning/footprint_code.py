@@ -13,35 +13,23 @@ from harmony_cli.planning.plan_base import PlannedBase
 
 
 def _distance(dx, dy, body, round_: bool):
-    """plan_base._plan_distance's signed distance, operation for operation, of one point relative to a body's
-    centre; `body`: the symbols cos and sin of its yaw, half sizes (2)."""
-    if round_:
-        return cs.fmax(cs.hypot(dx, dy), 1e-12) - body[2]
-    _, _, ex, ey, outside = _box_frame(dx, dy, body)
-    return cs.if_else(outside == 0.0, cs.fmax(ex, ey), outside)
-
-
-def _gradient(dx, dy, body, round_: bool):
-    """plan_base._plan_distance's gradient (gx, gy), operation for operation."""
+    """plan_base._plan_distance, operation for operation: the signed distance of one point relative to a body's
+    centre and its gradient (gx, gy); `body`: the symbols cos and sin of its yaw, half sizes (2). A Function keeps
+    only what its outputs use: a distance alone, or a gradient alone, costs only its own operations."""
     if round_:
         radial = cs.fmax(cs.hypot(dx, dy), 1e-12)
-        return dx / radial, dy / radial
-    c, s = body[0], body[1]
-    lx, ly, ex, ey, outside = _box_frame(dx, dy, body)
+        return radial - body[2], dx / radial, dy / radial
+    c, s, half = body[0], body[1], body[2:4]
+    lx, ly = c * dx + s * dy, -s * dx + c * dy  # in the body's frame
+    ex, ey = cs.fabs(lx) - half[0], cs.fabs(ly) - half[1]
+    ox, oy = cs.fmax(ex, 0.0), cs.fmax(ey, 0.0)
+    outside = cs.hypot(ox, oy)
     inside = outside == 0.0
     # fmax(1 / x, 0) = 1 / x, but keeps ox * scale a product: CasADi folds x * (1 / y) into x / y, rounded apart
     scale = cs.if_else(inside, 0.0, cs.fmax(1.0 / cs.fmax(outside, 1e-12), 0.0))
-    gx = cs.sign(lx) * cs.if_else(inside, ex >= ey, cs.fmax(ex, 0.0) * scale)
-    gy = cs.sign(ly) * cs.if_else(inside, ex < ey, cs.fmax(ey, 0.0) * scale)
-    return c * gx - s * gy, s * gx + c * gy
-
-
-def _box_frame(dx, dy, body):
-    """A box's frame: the point in it (lx, ly), its excess over the half sizes (ex, ey), its distance outside."""
-    c, s, half = body[0], body[1], body[2:4]
-    lx, ly = c * dx + s * dy, -s * dx + c * dy
-    ex, ey = cs.fabs(lx) - half[0], cs.fabs(ly) - half[1]
-    return lx, ly, ex, ey, cs.hypot(cs.fmax(ex, 0.0), cs.fmax(ey, 0.0))
+    gx = cs.sign(lx) * cs.if_else(inside, ex >= ey, ox * scale)
+    gy = cs.sign(ly) * cs.if_else(inside, ex < ey, oy * scale)
+    return cs.if_else(inside, cs.fmax(ex, ey), outside), c * gx - s * gy, s * gx + c * gy
 
 
 def margin_function(base: PlannedBase, round_: bool) -> cs.Function:
@@ -57,7 +45,7 @@ def margin_function(base: PlannedBase, round_: bool) -> cs.Function:
     for (ox, oy), radius in zip(base.offsets, base.circles[:, 2]):
         wx, wy = c * ox - s * oy, s * ox + c * oy
         px, py = mid[0] + wx, mid[1] + wy
-        circle = [_distance(px - centre[0], py - centre[1], body, round_) - radius, px, py, wx, wy]
+        circle = [_distance(px - centre[0], py - centre[1], body, round_)[0] - radius, px, py, wx, wy]
         if best is None:
             best = circle
         else:
@@ -65,7 +53,7 @@ def margin_function(base: PlannedBase, round_: bool) -> cs.Function:
             best = [cs.if_else(take, new, old) for new, old in zip(circle, best)]
     assert best is not None
     margin, px, py, wx, wy = best
-    gx, gy = _gradient(px - centre[0], py - centre[1], body, round_)
+    _, gx, gy = _distance(px - centre[0], py - centre[1], body, round_)  # at the nearest circle only
     names = (["mid", "turn", "centre", "body"], ["margin", "gx", "gy", "d_psi"])
     outputs = [margin - body[4], gx, gy, gy * wx - gx * wy]  # d/d(heading) of the offset is (-wy, wx)
     return cs.Function(f"harmony_footprint_{'round' if round_ else 'box'}", [mid, turn, centre, body], outputs, *names)
