@@ -217,10 +217,25 @@ class Planner:
         return self.schedule.delay
 
     def _replan(self, t: float, obs: Observation, active: ActivePhase, holding: bool) -> PlannerResult:
-        """The planner's new plan; an exception is a failed solve that holds the last plan (none yet: raised)."""
+        """The planner's new plan from the measured hands, within the rate bounds of the moment (a held box's: the
+        grip's); an exception is a failed solve that holds the last plan (none yet: raised)."""
         start = time.perf_counter()
         try:
-            return self._plan(t, obs, active, holding)
+            heading = heading_of(obs.hand_rotations, self.home_rotations)
+            if self.scenario.planner.start_velocity == "plan" and self.result is not None:
+                rates = self.result.plan.rates(t)  # measured pose, the plan's own velocity: no restart at rest
+                state = HandState(obs.hand_positions, rates[:6].reshape(2, 3), heading, rates[6])
+            else:
+                state = HandState(obs.hand_positions, obs.hand_velocities, heading, obs.heading_rate)
+            speeds, accelerations = self.rates
+            if holding and self.grip is not None and active.spec.force > 0.0:
+                speeds, accelerations = self.grip.bounds(speeds, accelerations, active.spec.force)
+            self.planner.set_bounds(speeds, accelerations)
+            box = self.scenario.world.box
+            if holding and self.box_drop is None and box is not None and obs.box_position is not None:
+                self.box_drop = obs.hand_positions[:, 2].mean() - (obs.box_position[2] - box.size[2] / 2)
+            radius = self.box_radius if holding else None
+            return self.planner.step(t, state, self.goal, active.end, active.index, radius, self.box_drop or 0.0)
         except Exception as exc:  # noqa: BLE001 - a QP's or our numerics' error: like a failed solve
             if self.result is None:
                 raise
@@ -228,24 +243,6 @@ class Planner:
             detail = f"{type(exc).__name__}: {message}"[:200]
             elapsed = time.perf_counter() - start
             return PlannerResult(self.result.plan, Outcome.ERROR, 0, elapsed, float("nan"), detail=detail)
-
-    def _plan(self, t: float, obs: Observation, active: ActivePhase, holding: bool) -> PlannerResult:
-        heading = heading_of(obs.hand_rotations, self.home_rotations)
-        if self.scenario.planner.start_velocity == "plan" and self.result is not None:
-            rates = self.result.plan.rates(t)  # measured pose, the plan's own velocity: no restart at rest
-            state = HandState(obs.hand_positions, rates[:6].reshape(2, 3), heading, rates[6])
-        else:
-            state = HandState(obs.hand_positions, obs.hand_velocities, heading, obs.heading_rate)
-        speeds, accelerations = self.rates
-        if holding and self.grip is not None and active.spec.force > 0.0:
-            speeds, accelerations = self.grip.bounds(speeds, accelerations, active.spec.force)
-        self.planner.set_bounds(speeds, accelerations)
-        box = self.scenario.world.box
-        if holding and self.box_drop is None and box is not None and obs.box_position is not None:
-            self.box_drop = obs.hand_positions[:, 2].mean() - (obs.box_position[2] - box.size[2] / 2)
-        return self.planner.step(
-            t, state, self.goal, active.end, active.index, self.box_radius if holding else None, self.box_drop or 0.0
-        )
 
 
 def _at_width(goal: np.ndarray, width: float) -> np.ndarray:
