@@ -150,15 +150,6 @@ class HandSQP:
                 break
         return Solved(C, T, outcome, it, clearance, shortfall, base_clearance)
 
-    def _brake(self, limit: np.ndarray, start: np.ndarray, T: float) -> None:
-        """Raise the speed rows' `limit` (s-units) to what braking from each curve's `start` speed (s-units, fixed
-        by the measured velocity) at the acceleration bound leaves at each hodograph point: bounds that tighten
-        below the hands' speed (a slower carry) slow the plan as fast as they allow, and the QP stays feasible."""
-        n = self.M - 1
-        brake = start[self._speed_curve] - self._speed_column * self.accelerations[self._speed_curve] * T**2 / (n - 1)
-        np.maximum(limit[self._speed_rows], brake, out=brake)
-        limit[self._speed_rows] = brake
-
     def _sqp_step(self, C: np.ndarray, t: float, T: float, carried, width: float):
         """One Gauss-Newton QP over the free control points of the plan over [t, t + T] and the obstacles' slacks:
         (step or None when the QP fails, predicted clearance, the base footprint's predicted margin, the largest
@@ -181,7 +172,12 @@ class HandSQP:
         limit = self._rate_limits * T**self._rate_order  # D^k P are s-derivatives: time derivative = D^k P / T^k
         hodographs = self.A @ x  # every curve's velocity and acceleration control points (s-units)
         Ax = hodographs[self.keep]
-        self._brake(limit, np.abs(hodographs[self._first_speed]), T)
+        # the speed rows raised to what braking from each curve's start speed at the acceleration bound leaves there:
+        # bounds that tighten below the hands' speed (a slower carry) slow the plan as fast as they allow, QP feasible
+        start, curve = np.abs(hodographs[self._first_speed]), self._speed_curve
+        brake = start[curve] - self._speed_column * self.accelerations[curve] * T**2 / (self.M - 2)
+        np.maximum(limit[self._speed_rows], brake, out=brake)
+        limit[self._speed_rows] = brake
         args["lba"][: self.n_keep], args["uba"][: self.n_keep] = -limit - Ax, limit - Ax
         clearance = self._clearance_rows(curves, t, T, carried)
         # the hands' heights: each curve lies in its control points' hull
