@@ -88,12 +88,25 @@ def stances(
         for p in task.phases[grasp + 1 :]
         if all(p.hands.get(h) is not None and not isinstance(p.hands[h], RelativeTarget) for h in hand_names)
     ]
+    footprint, bodies = base
     found = []
-    for group, pivot_name, pivot in ((pick, "the box", box.position), (place, "the box's goal", box.goal)):
-        if group and pivot is not None:
-            pairs = np.array([[target_position(p.hands[h], scenario) for h in hand_names] for p in group])
-            names = tuple(p.name for p in group)
-            found.append(_stance(names, pivot_name, pairs, np.asarray(pivot, dtype=float), base, heading_offset))
+    for group, pivot_name, written in ((pick, "the box", box.position), (place, "the box's goal", box.goal)):
+        if not group or written is None:
+            continue
+        pairs = np.array([[target_position(p.hands[h], scenario) for h in hand_names] for p in group])
+        pivot, margins = np.asarray(written, dtype=float), _margins(pairs, footprint, heading_offset)  # (bodies,)
+        turn = None  # the smallest clearing turn (of +-a both clear, the roomier)
+        for size in range(STEP_DEG, MOST_DEG + 1, STEP_DEG):
+            room = {
+                a: _margins(turned(pairs, pivot, np.deg2rad(a)), footprint, heading_offset).min() for a in (size, -size)
+            }
+            best = max(room, key=lambda a: room[a])
+            if room[best] >= 0.0:
+                turn = float(best)
+                break
+        nearest = int(np.argmin(margins))
+        phases = tuple(p.name for p in group)
+        found.append(Stance(phases, pivot_name, float(margins[nearest]), bodies[nearest], turn, pivot, pairs))
     return found
 
 
@@ -108,23 +121,6 @@ def turned(pairs: np.ndarray, pivot: np.ndarray, angle: float) -> np.ndarray:
 
 def _on_box(target) -> bool:
     return isinstance(target, RelativeTarget) and target.relative_to == "box"
-
-
-def _stance(phases, pivot_name, pairs, pivot, base, heading_offset) -> Stance:
-    """The written stance's margin and nearest body; the smallest clearing turn (of +-a both clear, the roomier)."""
-    footprint, names = base
-    margins = _margins(pairs, footprint, heading_offset)  # (bodies,)
-    turn = None
-    for size in range(STEP_DEG, MOST_DEG + 1, STEP_DEG):
-        room = {
-            a: _margins(turned(pairs, pivot, np.deg2rad(a)), footprint, heading_offset).min() for a in (size, -size)
-        }
-        best = max(room, key=lambda a: room[a])
-        if room[best] >= 0.0:
-            turn = float(best)
-            break
-    nearest = int(np.argmin(margins))
-    return Stance(phases, pivot_name, float(margins[nearest]), names[nearest], turn, pivot, pairs)
 
 
 def _margins(pairs: np.ndarray, base: PlannedBase, heading_offset: float) -> np.ndarray:
