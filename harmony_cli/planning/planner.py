@@ -59,7 +59,6 @@ class Planner:
             f"{no_pose(stance, bool(scenario.robot.trunk), len(STARTS))}: the robot may not get there"
             for stance in self.stance_plan.unplaced
         ]
-        self.base_xy = list(robot.base_joints[:2])  # where the base stands picks a chest posture (stance_plan.py)
         self.chest = [robot.index(j) for j in scenario.robot.chest_joints]
         self.robot, self.heading_offset, self.base_pose = robot, offset, list(robot.base_joints)
         self.restanced: set[int] = set()  # the phases that stalled and searched a stance of their own (once each)
@@ -121,7 +120,7 @@ class Planner:
             if self.grip is not None:
                 force_ref = self.grip(force_ref, obs.wrenches, holding)
                 log |= {"grip_friction_used": self.grip.friction_used, "carry_pace": self.grip.pace}
-        base, posture = obs.q[self.base_xy], self.stance_plan.posture(active.index)
+        base, posture = obs.q[self.base_pose[:2]], self.stance_plan.posture(active.index)  # base: x, y
         target = None if posture is None or not self.chest else posture.chest(positions, base)  # None: straight
         chest_ref = self.chest_ramp(target, t, knot_times, obs.q[self.chest], holding)
         # the base's stance only where its cost is on (mpc.weights.stance): nothing to compute each step otherwise
