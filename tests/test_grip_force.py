@@ -91,7 +91,7 @@ def test_a_plan_under_slower_bounds_meets_them_by_taking_longer():
     fast = planner.step(0.0, state, goal, 3.0, 0)
     speeds = np.r_[spec.max_speed, spec.max_speed, spec.max_yaw_rate]
     accelerations = np.r_[spec.max_acceleration, spec.max_acceleration, spec.max_yaw_acceleration]
-    planner.set_bounds(0.25 * speeds, accelerations)
+    planner.sqp.set_bounds(0.25 * speeds, accelerations)
     slow = planner.step(0.02, state, goal, 3.0, 0)
     assert slow.success and slow.plan.horizon > 2.0 * fast.plan.horizon
     times = slow.plan.start + np.linspace(0.0, slow.plan.horizon, 200, endpoint=False)

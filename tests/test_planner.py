@@ -264,10 +264,10 @@ def test_a_plan_slowed_by_tighter_bounds_returns_to_its_phase_s_end_when_they_ar
     planner, first = _plan(goal=goal, phase_end=10.0)
     assert first.success and first.plan.horizon == pytest.approx(10.0)
     speeds, accelerations = rate_bounds(SPEC)
-    planner.set_bounds(0.1 * speeds, 0.01 * accelerations)  # the pads slip: the carry slows to a crawl
+    planner.sqp.set_bounds(0.1 * speeds, 0.01 * accelerations)  # the pads slip: the carry slows to a crawl
     slowed = planner.step(0.5, HandState(START, np.zeros((2, 3)), 0.0), goal, 10.0, 0)
     assert slowed.success and slowed.plan.start + slowed.plan.horizon > 15.0
-    planner.set_bounds(speeds, accelerations)
+    planner.sqp.set_bounds(speeds, accelerations)
     state = HandState(slowed.plan.sample(np.array([1.0]))[0][0], np.zeros((2, 3)), 0.0)
     back = planner.step(1.0, state, goal, 10.0, 0)
     assert back.success and back.plan.start + back.plan.horizon == pytest.approx(10.0)
@@ -279,7 +279,7 @@ def test_hands_faster_than_a_tightened_speed_bound_brake_at_the_acceleration_bou
     speeds, accelerations = rate_bounds(SPEC)
     accelerations = 0.3 * accelerations
     fast = HandState(START, np.tile([0.8, 0.0, 0.0], (2, 1)), 0.0)  # both hands at 0.8 m/s along x
-    planner.set_bounds(0.25 * speeds, accelerations)  # the carry slows to a quarter of its speed
+    planner.sqp.set_bounds(0.25 * speeds, accelerations)  # the carry slows to a quarter of its speed
     slowed = planner.step(0.5, fast, goal, 6.0, 0)
     assert first.success and slowed.success and slowed.plan.horizon == pytest.approx(5.5)  # no stretch needed
     C, T = slowed.plan.control_points, slowed.plan.horizon

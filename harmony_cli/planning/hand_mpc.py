@@ -63,12 +63,6 @@ class HandMPC:
         self._relief_key: tuple | None = None  # the goal whose reliefs the SQP has
         warm_outlines(obstacles, ground)  # before the loop, as the compiled code is loaded
 
-    def set_bounds(self, speeds: np.ndarray, accelerations: np.ndarray) -> None:
-        """The rate bounds per curve (7,) of the plans from now on (a held box's, planning/grip_force.py): a plan
-        that cannot meet them by its end takes the closed-form horizon."""
-        if not (np.array_equal(speeds, self.sqp.speeds) and np.array_equal(accelerations, self.sqp.accelerations)):
-            self.sqp.set_bounds(speeds, accelerations)
-
     def goal_heading(self, goal: np.ndarray, heading_now: float) -> float:
         d = goal[1] - goal[0]
         heading = np.arctan2(d[1], d[0]) + self.heading_offset

@@ -93,7 +93,8 @@ class HandSQP:
         self._bind_buffers()
 
     def set_bounds(self, speeds: np.ndarray, accelerations: np.ndarray) -> None:
-        """The speed and acceleration bounds per curve (7,) of the plans from now on."""
+        """The speed and acceleration bounds per curve (7,) of the plans from now on (a held box's, grip_force.py): a
+        plan that cannot meet them by its end takes the closed-form horizon (hand_mpc.py)."""
         n1, n2 = self._differences
         self._rate_limits = np.r_[np.repeat(speeds, n1), np.repeat(accelerations, n2)][self.keep]
         self.speeds, self.accelerations = speeds, np.asarray(accelerations, dtype=float)

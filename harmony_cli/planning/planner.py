@@ -229,7 +229,7 @@ class Planner:
             speeds, accelerations = self.rates
             if holding and self.grip is not None and active.spec.force > 0.0:
                 speeds, accelerations = self.grip.bounds(speeds, accelerations, active.spec.force)
-            self.planner.set_bounds(speeds, accelerations)
+            self.planner.sqp.set_bounds(speeds, accelerations)
             box = self.scenario.world.box
             if holding and self.box_drop is None and box is not None and obs.box_position is not None:
                 self.box_drop = obs.hand_positions[:, 2].mean() - (obs.box_position[2] - box.size[2] / 2)
