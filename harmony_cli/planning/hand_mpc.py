@@ -92,8 +92,14 @@ class HandMPC:
         if self.awaiting is not None and self.awaiting.phase != phase:
             self.awaiting = None
         solved, how, key, load = None, Step.ENDED, (phase, carried is None, goal), (carried, width)
-        if self.awaiting is not None:  # the line's plan wants a route: its SQP from this step on
-            self._route_search(self.awaiting, t, ends, carried)
+        if (awaiting := self.awaiting) is not None:  # the line's plan wants a route: its SQP from this step on
+            self.awaiting = None
+            end = awaiting.t + awaiting.line.T
+            seed = route_seed(self.sqp, self.ground, max(end - t, self.spec.min_horizon), ends, carried)
+            if seed is not None:
+                self.search = Search(awaiting.phase, seed, end, self.spec.phase_iterations, True, line=awaiting)
+            else:  # no route: the line's plan, as of its own step, steps on
+                self._take(awaiting.line, awaiting.phase, awaiting.t)
         elif self.search is None and phase != self.phase:  # a new phase: its first plan's search
             self.search = self._phase_search(t, ends, phase, phase_end, carried)
         if self.search is not None:
@@ -129,17 +135,6 @@ class HandMPC:
         if seed is not None:
             return Search(phase, seed, t + T, self.spec.phase_iterations, routed=True, via=True)
         return Search(phase, straight_to(ends, self.M), t + T, self.spec.phase_iterations)
-
-    def _route_search(self, awaiting: Awaiting, t: float, ends: Ends, carried) -> None:
-        """The route's search after a line's plan that is not clean, seeded now; where there is no route, the
-        line's plan is taken as of its own step (and steps on: no search)."""
-        self.awaiting = None
-        end = awaiting.t + awaiting.line.T
-        seed = route_seed(self.sqp, self.ground, max(end - t, self.spec.min_horizon), ends, carried)
-        if seed is not None:
-            self.search = Search(awaiting.phase, seed, end, self.spec.phase_iterations, True, line=awaiting)
-        else:
-            self._take(awaiting.line, awaiting.phase, awaiting.t)
 
     def _search_step(self, search: Search, t: float, ends: Ends, load: tuple, key: tuple) -> tuple[Solved, Step]:
         """This step's share of the search's SQP and how it ended. A line's plan is taken when it is clean; when
