@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.planning import corner_graph, route, visibility
+from harmony_cli.planning import route, visibility
 from harmony_cli.planning.route import SIDES, footprint, plan_route
 
 
@@ -90,13 +90,13 @@ def test_a_route_after_its_outlines_were_warmed_computes_none_of_them_nor_their_
     ground = Ground([(table, 0.03)], base_radius=0.38)
     warm_outlines([crate], ground)
     computed, geometry = route._outline.cache_info().misses, set(visibility._POLYGONS)
-    graphs = set(corner_graph._GRAPHS)
+    graphs = set(visibility._GRAPHS)
     hands = lambda x: np.array([[x, 0.15, 1.2], [x, -0.15, 1.2]])
     found = route_around([crate], hands(0.5), hands(3.2), (0.2, 0.15), ground)
     assert found is not None and len(found.points) > 2  # it went round the crate
     assert route._outline.cache_info().misses == computed
     assert set(visibility._POLYGONS) == geometry
-    assert set(corner_graph._GRAPHS) == graphs
+    assert set(visibility._GRAPHS) == graphs
 
 
 def test_keeping_only_segments_tangent_at_their_corners_changes_no_route_on_random_scenes(monkeypatch):
@@ -115,8 +115,8 @@ def test_keeping_only_segments_tangent_at_their_corners_changes_no_route_on_rand
     tangent_only = [plan_route(*scene) for scene in scenes]
     every = lambda nodes, i, j, polygons: np.ones(len(i), dtype=bool)  # noqa: E731
     monkeypatch.setattr(route, "tangent", every)
-    monkeypatch.setattr(corner_graph, "tangent", every)
-    monkeypatch.setattr(corner_graph, "_GRAPHS", {})
+    monkeypatch.setattr(visibility, "tangent", every)
+    monkeypatch.setattr(visibility, "_GRAPHS", {})
     full = [plan_route(*scene) for scene in scenes]
     assert sum(r is not None and len(r.points) > 2 for r in full) > 100  # a third and more go round something
     for got, expected in zip(tangent_only, full):
@@ -161,7 +161,7 @@ def test_the_corner_pairs_made_ahead_for_all_outlines_are_those_tested_among_the
         tangent = visibility.tangent(nodes, i, j, blocking)
         i, j = i[tangent], j[tangent]
         seen = visibility.visible(nodes, i, j, blocking)
-        got = corner_graph.CornerGraph.of(*polygons).edges(kept)
+        got = visibility.CornerGraph.of(*polygons).edges(kept)
         np.testing.assert_array_equal(got[0], i[seen])
         np.testing.assert_array_equal(got[1], j[seen])
 

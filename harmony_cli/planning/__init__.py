@@ -6,7 +6,7 @@ step for the whole-body MPC's hand targets (`Planner.plan(t, observation, knot_t
 1. Stances (stance*.py): for each phase that works at a place, the base pose that reaches it, chosen by one
    optimisation over the whole scene (reach, the footprint's clearance with obstacles' margins as a preference and
    their bodies as a hard limit, the chest's range), before the run.
-2. Route (route.py, corner_graph.py, visibility.py, plan_seed.py): the shortest planar way round obstacles and
+2. Route (route.py, visibility.py, plan_seed.py): the shortest planar way round obstacles and
    tables, wide enough for the base, through a stance where one is needed; it seeds the hands' plan.
 3. Hands (hand_mpc.py, hand_sqp.py, plan_horizon.py): the task-space MPC, a Bezier SQP whose clearance rows carry
    exact L1 slack (every QP feasible), its horizon from the rate bounds in closed form, its outcomes typed

@@ -14,9 +14,8 @@ import numpy as np
 
 from harmony_cli.maths.rotations import rot_z
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.planning.corner_graph import corner_graph
 from harmony_cli.planning.route import Route, footprint, plan_route
-from harmony_cli.planning.visibility import polygon_of
+from harmony_cli.planning.visibility import corner_graph, polygon_of
 
 if TYPE_CHECKING:
     from harmony_cli.planning.hand_plan import HandState, Obstacle

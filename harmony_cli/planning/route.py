@@ -20,8 +20,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from harmony_cli.maths.shapes import Shape
-from harmony_cli.planning.corner_graph import corner_graph
-from harmony_cli.planning.visibility import OUTSET, Polygon, inside, polygon_of, tangent, visible
+from harmony_cli.planning.visibility import OUTSET, Polygon, corner_graph, inside, polygon_of, tangent, visible
 
 SIDES = 16  # polygon sides of a grown round shape or corner
 
@@ -72,7 +71,7 @@ def plan_route(start: np.ndarray, goal: np.ndarray, outlines: list[np.ndarray]) 
     if _direct(first, last, blocking):  # the segment is the shortest path: no graph
         return _route(np.vstack([start, first, last, goal]))
     nodes = np.vstack([first, last, *(p.nodes for p in blocking)])
-    i, j = _end_pairs(len(nodes))  # the pairs with an end; those between corners come made (corner_graph.py)
+    i, j = _end_pairs(len(nodes))  # the pairs with an end; those between corners come made (visibility.py)
     keep = np.flatnonzero(tangent(nodes, i, j, blocking))
     i, j = i[keep], j[keep]
     seen = visible(nodes, i, j, blocking)
