@@ -40,11 +40,13 @@ def test_hands_pressed_into_the_table_fail_the_run_as_a_collision_with_the_table
     assert steps.loc[steps["t"] == first, "contact_robot_table_m"].iloc[0] <= 0.0
 
 
-def test_an_approach_held_off_its_goal_by_the_table_times_out_late_by_its_wait(into_table):
+def test_an_approach_held_off_its_goal_by_the_table_re_plans_its_stance_and_times_out_after_both_waits(into_table):
+    """The approach (4 s) waits 4 s, searches a stance of its own as it would give up, waits 4 s more in vain."""
     task, _ = into_table
     approach = next(p for p in task["phases"] if p["name"] == "approach")
     assert approach["timed_out"] and task["timed_out_phases"] == ["approach"]
-    assert approach["late_s"] == pytest.approx(4.0) and task["late_s"] == pytest.approx(approach["late_s"])
+    assert approach["restanced_s"] == pytest.approx(approach["start_s"] + 4.0 + 4.0, abs=0.05)
+    assert approach["late_s"] == pytest.approx(8.0) and task["late_s"] == pytest.approx(approach["late_s"])
 
 
 def test_the_same_scene_with_the_hands_aimed_beside_the_box_touches_no_table(tmp_path):
