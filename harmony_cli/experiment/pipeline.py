@@ -18,6 +18,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from harmony_cli.console import warn
 from harmony_cli.experiment.actuation import Actuator
 from harmony_cli.experiment.faults import HeldPlans, RunFault, Writes, failed, fault_of
+from harmony_cli.experiment.figure_process import figure_processes
 from harmony_cli.experiment.health import Health, check_start
 from harmony_cli.experiment.interrupts import (
     Guard,
@@ -125,14 +126,18 @@ def describe(scenario: Scenario, built: Built) -> dict:
     }
 
 
-def _notes(scenario: Scenario, scenario_dir: Path, built: Built, progress: bool) -> list[str]:
+def _notes(scenario: Scenario, scenario_dir: Path, built: Built, progress: bool, paths: dict[str, str]) -> list[str]:
     """What run.log says before the loop: the robot's and the simulation's notes, the written task's warnings
-    (on the console too when it shows progress: before the robot moves; a study says them in its report)."""
+    (on the console too when it shows progress: before the robot moves; a study says them in its report), the
+    whole-body MPC's size and build time, and each solver's code path (`paths`)."""
     written = task_warnings(built)
     if progress:
         warn(written)
     notes = robot_warnings(scenario, scenario_dir) + list(built.robot.notes) + built.sim.notes
-    return notes + [f"warning: {line}" for line in written]
+    mpc = built.mpc
+    build = f"built whole-body MPC: {mpc.problem.n_vars} decision variables in {mpc.build_time:.2f} s"
+    build += f" ({REUSED})" if mpc.reused else ""
+    return notes + [f"warning: {line}" for line in written] + [build] + [f"{k}: {v}" for k, v in paths.items()]
 
 
 def task_warnings(built: Built) -> list[str]:
@@ -254,19 +259,15 @@ def execute(
     replay = ReplayLog()
     built, recorder, writes = None, None, Writes(out, summary)
     log, stream = (out / "run.log").open("w"), StepStream(out / STREAM)
+    figures = figure_processes(plots, concurrency, scenario.sim.duration)  # they import while the run builds
     with signals_end_the_run() as guard:
         try:
             built = build(scenario, scenario_dir)
             summary |= describe(scenario, built)
             meta["solver_paths"] = solver_paths(built)
             (out / "meta.json").write_text(json.dumps(meta, indent=2))  # now too: `harmony summarise` after a kill
-            log.write("".join(f"{line}\n" for line in _notes(scenario, scenario_dir, built, progress)))
-            log.write(
-                f"built whole-body MPC: {built.mpc.problem.n_vars} decision variables in {built.mpc.build_time:.2f} s"
-                + (f" ({REUSED})" if built.mpc.reused else "")
-                + "\n"
-                + "".join(f"{k}: {v}\n" for k, v in meta["solver_paths"].items())
-            )
+            notes = _notes(scenario, scenario_dir, built, progress, meta["solver_paths"])
+            log.write("".join(f"{line}\n" for line in notes))
             log.flush()
             recorder = _recorder(built, video)
             summary["wall_time_s"] = simulate(built, scenario, rows, stream, log, recorder, progress, replay, guard)
@@ -292,7 +293,7 @@ def execute(
             if built is not None:
                 built.sim.close()
             run = RunRecord(out, scenario, scenario_dir, rows, summary, meta, twin, replay)
-            finish_run(run, (log, stream, recorder), writes, plots)
+            finish_run(run, (log, stream, recorder), writes, plots, figures)
     if writes.reason is not None:  # the run completed, its results could not all be written
         raise RunFailed(out, writes.reason)
     return out

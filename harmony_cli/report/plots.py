@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -16,23 +18,40 @@ if TYPE_CHECKING:
     from harmony_cli.scenario import Scenario
 
 
-def plot_run_dir(out: Path, steps: pd.DataFrame, scenario: Scenario, summary: dict) -> None:
+def plot_run_dir(
+    out: Path, steps: pd.DataFrame, scenario: Scenario, summary: dict, part: int = 0, parts: int = 1
+) -> None:
     """Every figure of a run directory: solve time, loop time, hand paths, tracking error; the top-down view of a
-    task; force tracking and each push's response when the run has them."""
+    task; force tracking and each push's response when the run has them. `part` of `parts`: every parts-th figure
+    from the part-th on (processes that share the drawing draw disjoint sets)."""
+    for draw in run_figures(steps, scenario, summary)[part::parts]:
+        draw(out)
+
+
+def run_figures(steps: pd.DataFrame, scenario: Scenario, summary: dict) -> list[Callable[[Path], object]]:
+    """A run directory's figures, each a function of the directory it draws into, in a fixed order (the slowest
+    to draw first)."""
     hands = list(scenario.robot.end_effectors)
-    plot_run(out, steps, hands)
-    plot_loop_time(out, steps, scenario.sim.control_dt)
-    if scenario.task is not None:
-        plot_top_down(out, steps, scenario, hands)
+    figures: list[Callable[[Path], object]] = [lambda out: plot_loop_time(out, steps, scenario.sim.control_dt)]
+    if scenario.task is not None:  # second: the two slowest to draw go to two processes that share them
+        figures.append(lambda out: plot_top_down(out, steps, scenario, hands))
+    figures += [
+        lambda out: plot_solve_time(out, steps),
+        lambda out: plot_hand_paths(out, steps, hands),
+        lambda out: plot_tracking_error(out, steps, hands),
+    ]
     if scenario.pushes or any(c.endswith("_force_ref_N") for c in steps.columns):
-        plot_forces(out, steps, hands, scenario.pushes)
+        figures.append(lambda out: plot_forces(out, steps, hands, scenario.pushes))
         pushes = summary.get("task", summary).get("pushes", {})
-        for push in scenario.pushes:
-            plot_push(out, steps, hands, push, pushes[push.name]["pushed_hand"])
+        figures += [
+            partial(plot_push, steps=steps, hands=hands, push=push, pushed_hand=pushes[push.name]["pushed_hand"])
+            for push in scenario.pushes
+        ]
+    return figures
 
 
-def plot_run(out: Path, steps: pd.DataFrame, hands: list[str]) -> None:
-    """solve_time.png, hand_paths.png (top-down, reference vs measured) and tracking_error.png."""
+def plot_solve_time(out: Path, steps: pd.DataFrame) -> None:
+    """solve_time.png: the whole-body MPC's solve time per step and its median."""
     fig, ax = plt.subplots(figsize=(7, 3))
     ax.plot(steps["t"], steps["solve_ms"], lw=0.8)
     ax.axhline(steps["solve_ms"].median(), color="k", ls="--", lw=0.8, label="median")
@@ -40,6 +59,9 @@ def plot_run(out: Path, steps: pd.DataFrame, hands: list[str]) -> None:
     ax.legend()
     save(fig, out / "solve_time.png")
 
+
+def plot_hand_paths(out: Path, steps: pd.DataFrame, hands: list[str]) -> None:
+    """hand_paths.png: top-down, each hand's reference and measured path, and the base's."""
     fig, ax = plt.subplots(figsize=(7, 5))
     for hand in hands:
         (line,) = ax.plot(steps[f"{hand}_ref_x"], steps[f"{hand}_ref_y"], "--", lw=1, label=f"{hand} reference")
@@ -52,6 +74,9 @@ def plot_run(out: Path, steps: pd.DataFrame, hands: list[str]) -> None:
     ax.legend(fontsize=8)
     save(fig, out / "hand_paths.png")
 
+
+def plot_tracking_error(out: Path, steps: pd.DataFrame, hands: list[str]) -> None:
+    """tracking_error.png: each hand's distance from its reference over time."""
     fig, ax = plt.subplots(figsize=(7, 3))
     for hand in hands:
         ax.plot(steps["t"], 100 * steps[f"{hand}_error_m"], lw=1, label=hand)

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
+from matplotlib.collections import PatchCollection
 from matplotlib.patches import Circle, Polygon
 
 from harmony_cli.maths.shapes import obstacle_shape, table_shape
@@ -51,15 +52,14 @@ def _draw_obstacle(ax, spec: ObstacleSpec, steps: pd.DataFrame, colour: str = "i
 
 
 def _footprints(ax, steps: pd.DataFrame, scenario: Scenario, every: float = 2.0, colour: str = "grey") -> None:
-    """The circles the whole-body MPC keeps clear, every `every` seconds."""
+    """The circles the whole-body MPC keeps clear, every `every` seconds (one collection: one artist to draw)."""
 
     bx, by, byaw = (steps[f"q_{j}"].to_numpy() for j in scenario.robot.base_joints)
+    circles = []
     for i in range(0, len(steps), max(1, int(round(every / scenario.sim.control_dt)))):
         c, s = np.cos(byaw[i]), np.sin(byaw[i])
-        for x, y, r in scenario.robot.footprint:
-            ax.add_patch(
-                Circle((bx[i] + c * x - s * y, by[i] + s * x + c * y), r, fill=False, ec=colour, lw=0.4, alpha=0.5)
-            )
+        circles += [Circle((bx[i] + c * x - s * y, by[i] + s * x + c * y), r) for x, y, r in scenario.robot.footprint]
+    ax.add_collection(PatchCollection(circles, facecolor="none", edgecolor=colour, linewidths=0.4, alpha=0.5))
 
 
 def plot_top_down(

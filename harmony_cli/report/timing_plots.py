@@ -30,7 +30,7 @@ def plot_loop_time(out: Path, steps: pd.DataFrame, control_dt: float) -> None:
     fig, (hist, bars) = plt.subplots(1, 2, figsize=(11, 3.5), gridspec_kw={"width_ratios": [3, 2]})
     loop = steps["loop_ms"].to_numpy()
     bins = np.linspace(0.0, max(budget, float(loop.max())) * 1.05, 80)
-    hist.hist(loop, bins=bins, color="tab:blue", label="loop (planner + whole-body MPC)")
+    hist.hist(loop, bins=bins, histtype="stepfilled", color="tab:blue", label="loop (planner + whole-body MPC)")
     hist.axvline(budget, color="tab:red", lw=1.2, label=f"control period {budget:g} ms")
     for q, style in ((50, "--"), (99, ":")):
         hist.axvline(np.percentile(loop, q), color="k", ls=style, lw=0.8, label=f"p{q} {np.percentile(loop, q):.2f}")
