@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
+import time
 from pathlib import Path
 
 import pandas as pd
@@ -69,3 +72,35 @@ def test_helpers_sent_no_job_end_cleanly_when_closed():
     helpers = FigureProcesses(parts=2)
     helpers.close()
     assert [child.returncode for child in helpers.children] == [0, 0]
+
+
+def test_a_helper_that_has_gone_makes_sending_the_job_fail_so_that_the_run_draws_the_figures_itself(job, tmp_path):
+    helpers = FigureProcesses(parts=2)
+    helpers.children[1].kill()
+    helpers.children[1].wait()
+    try:
+        assert helpers.send(FigureJob(tmp_path, job.steps, job.scenario, job.summary)) is False
+    finally:
+        helpers.close()
+
+
+def _ignores_interrupt(pid: int) -> bool:
+    """Whether process `pid` ignores SIGINT (Linux: the SigIgn mask in /proc/<pid>/status)."""
+    status = Path(f"/proc/{pid}/status").read_text()
+    mask = int(next(line.split()[1] for line in status.splitlines() if line.startswith("SigIgn:")), 16)
+    return bool(mask >> (signal.SIGINT - 1) & 1)
+
+
+def test_a_helper_leaves_the_terminals_interrupt_to_the_run_and_still_draws_its_share(job, tmp_path):
+    helpers = FigureProcesses(parts=1)
+    try:
+        child = helpers.children[0]
+        deadline = time.monotonic() + 60.0
+        while not _ignores_interrupt(child.pid) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        os.kill(child.pid, signal.SIGINT)  # what Ctrl-C sends the run's whole process group
+        assert helpers.send(FigureJob(tmp_path, job.steps, job.scenario, job.summary))
+        helpers.wait()
+    finally:
+        helpers.close()
+    assert len(_drawn(tmp_path)) >= 5

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import pickle
+import signal
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -56,13 +57,18 @@ class FigureProcesses:
             for part in range(parts)
         ]
 
-    def send(self, job: FigureJob) -> None:
-        """Every helper starts drawing its share of `job`'s figures."""
+    def send(self, job: FigureJob) -> bool:
+        """Every helper starts drawing its share of `job`'s figures; False if one has gone (killed with the run's
+        process group): the run then draws them itself."""
         data = pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL)
-        for child in self.children:
-            assert child.stdin is not None
-            child.stdin.write(data)
-            child.stdin.close()
+        try:
+            for child in self.children:
+                assert child.stdin is not None
+                child.stdin.write(data)
+                child.stdin.close()
+        except BrokenPipeError:
+            return False
+        return True
 
     def wait(self) -> None:
         """Back when every helper is done; a helper's exception raised here (the first one's)."""
@@ -97,6 +103,9 @@ def figure_processes(plots: str, concurrency: int, duration: float) -> FigurePro
 
 def _serve(part: int, parts: int) -> int:
     os.nice(NICENESS)
+    for name in ("SIGINT", "SIGHUP"):  # the terminal's signals are the run's to handle: it sends the job or closes
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_IGN)
     from harmony_cli.report.plots import plot_run_dir  # imported while the run builds and simulates
 
     _warm_up()

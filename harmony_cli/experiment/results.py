@@ -120,8 +120,9 @@ def _finish(
         summary["video"] = str(video)
     steps = summarised(run)
     drawn = len(steps) > 0 and (plots == "all" or plots == "failed" and not succeeded(summary))
-    if drawn and figures is not None:
-        writes("plots", lambda: figures.send(FigureJob(out, steps, run.scenario, dict(summary))))
+    if drawn and figures is not None and not figures.send(FigureJob(out, steps, run.scenario, dict(summary))):
+        figures.close()  # a helper has gone: the others finish theirs, then the run draws every figure itself
+        figures = None
     with ThreadPoolExecutor(1) as pool:
         replay = None if run.replay is None else pool.submit(run.replay.write, out)
         write_tables(run, steps, writes)
