@@ -28,7 +28,8 @@ if TYPE_CHECKING:
     from harmony_cli.scenario import Scenario
 
 HELPERS = 2  # the figures are shared by this many processes
-MIN_DURATION = 20.0  # [s] simulated: shorter runs draw few enough points that starting helpers does not pay
+# [s] simulated: shorter runs (smoke runs, tests) start no helpers; their figures are quick to draw in the run itself
+MIN_DURATION = 20.0
 NICENESS = 5  # the helpers' priority below the run's
 
 

@@ -87,9 +87,9 @@ class StancePlan:
         """This plan with `posture` before every earlier one for its phases (a stalled phase's, stalled_posture)
         and, where it needs reliefs, the larger of its own and the earlier ones per obstacle."""
         updated = dict(self.reliefs)
-        for phase in posture.phases:
-            earlier = updated.get(phase)
-            if reliefs is not None:
+        if reliefs is not None:
+            for phase in posture.phases:
+                earlier = updated.get(phase)
                 updated[phase] = reliefs if earlier is None else np.maximum(earlier, reliefs)
         return replace(self, postures=[posture, *self.postures], reliefs=updated)
 

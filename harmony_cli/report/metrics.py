@@ -106,10 +106,10 @@ def phase_outcomes(steps: pd.DataFrame, scenario: Scenario, hands: list[str]) ->
     """Per task phase: `start_s`; `completed_s`, when its hands first reached its goal (None: never);
     `final_goal_error_m` at its last step; `waited_s`, how long it waited for its goal past its end as written
     (moved by the earlier phases' waits; tasks/schedule.py); `late_s`, how late it ended, which is that wait (a
-    wait lasts until the goal is reached, at most the phase's own duration); `replanned_s`, when it re-planned
-    as it started to wait (planning/planner.py; None: it never waited, or waited with the box held);
-    `restanced_s`, when it re-planned its stance as it would have given up (planning/planner.py; None: it did
-    not);
+    wait lasts until the goal is reached, at most the phase's own duration, twice that after its stance was
+    re-planned); `replanned_s`, when it re-planned as it started to wait (planning/planner.py; None: it never
+    waited, or waited with the box held); `restanced_s`, when it re-planned its stance as it would have given up
+    (planning/planner.py; None: it did not);
     `timed_out`: it waited and its goal was still not reached at its last step (the next phase started without
     it): it stalled, and the run fails."""
     phases = []
