@@ -1,0 +1,47 @@
+"""Two studies of the same draws, paired (tools/compare_studies.py): what a change gained and lost."""
+
+from __future__ import annotations
+
+import importlib.util
+
+import pandas as pd
+from conftest import ROOT
+
+spec = importlib.util.spec_from_file_location("compare_studies", ROOT / "tools" / "compare_studies.py")
+assert spec is not None and spec.loader is not None
+compare = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(compare)
+
+
+def _study(directory, outcomes: list[str], draws: str = "dev"):
+    directory.mkdir()
+    rows = [
+        {"draws": draws, "seed": 7, "sample": i, "point": "base", "success": o == "success", "outcome": o}
+        for i, o in enumerate(outcomes)
+    ]
+    pd.DataFrame(rows).to_parquet(directory / "study.parquet")
+    return directory
+
+
+def test_the_draws_whose_success_flips_are_counted_each_way_and_tested_as_a_coin(tmp_path, capsys):
+    before = _study(tmp_path / "a", ["success", "dropped", "dropped", "stalled", "success", "success"])
+    after = _study(tmp_path / "b", ["success", "success", "success", "dropped", "dropped", "success"])
+    assert compare.main([str(before), str(after)]) == 0
+    out = capsys.readouterr().out
+    assert "success flipped on 3 draws: 2 gained, 1 lost (exact McNemar p = 1)" in out
+    assert "  dev 3 (base): stalled -> dropped" in out and "  dev 0 (base)" not in out
+
+
+def test_only_draws_run_on_both_sides_are_paired(tmp_path, capsys):
+    before = _study(tmp_path / "a", ["success"] * 4)
+    after = _study(tmp_path / "b", ["dropped"] * 2)
+    assert compare.main([str(before), str(after)]) == 0
+    assert "before: 2 of 2" in capsys.readouterr().out
+
+
+def test_validation_draws_are_refused_in_one_line(tmp_path, capsys):
+    before = _study(tmp_path / "a", ["success"], draws="validation")
+    after = _study(tmp_path / "b", ["success"], draws="validation")
+    assert compare.main([str(before), str(after)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "validation" in err and str(before) in err

@@ -1,0 +1,105 @@
+"""Pair two studies' runs of the same draws (e.g. the code before and after a change, each run with `harmony study
+... --out DIR` in its own checkout) and say what the change did to the outcomes.
+
+    python tools/compare_studies.py BEFORE_DIR AFTER_DIR
+
+Runs are paired by their draw (set, seed, sample) and grid point; only pairs with a result on both sides count.
+Printed: each side's successes of the paired draws with a Wilson 95 % interval, the table of outcomes before
+against after, every draw whose outcome changed, and the exact McNemar test on the draws whose success flipped
+(a two-sided binomial test of the flips one way against the other): a change whose gains and losses could be
+the same coin is not an improvement, however many draws it gains on the ones it was argued from.
+
+A change is chosen on development draws; validation draws are run to report, never to choose between variants,
+so studies of a `validation` set are refused (exit 2).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pandas as pd
+from scipy.stats import binomtest
+
+KEYS = ["draws", "seed", "sample", "point"]
+REPORT_ONLY = "validation"  # the set of draws that is run to report, never to choose
+
+
+def paired(before: pd.DataFrame, after: pd.DataFrame) -> pd.DataFrame:
+    """One row per draw and grid point run on both sides: KEYS, success_a/b and outcome_a/b."""
+    columns = [*KEYS, "success", "outcome"]
+    both = before[columns].merge(after[columns], on=KEYS, suffixes=("_a", "_b"))
+    return both.dropna(subset=["success_a", "success_b"]).sort_values(KEYS, ignore_index=True)
+
+
+def wilson(successes: int, n: int) -> str:
+    if n == 0:
+        return "no draws"
+    interval = binomtest(successes, n).proportion_ci(method="wilson")
+    low, high = _percent(interval.low), _percent(interval.high)
+    return f"{successes} of {n} ({_percent(successes / n)}, Wilson 95 % {low} - {high})"
+
+
+def _percent(share: float) -> str:
+    return f"{100 * share:.0f} %"  # the reports' style
+
+
+def mcnemar(pairs: pd.DataFrame) -> tuple[int, int, float]:
+    """(draws gained, draws lost, the exact two-sided McNemar p-value; 1 without flips)."""
+    gained = int((~pairs.success_a.astype(bool) & pairs.success_b.astype(bool)).sum())
+    lost = int((pairs.success_a.astype(bool) & ~pairs.success_b.astype(bool)).sum())
+    flips = gained + lost
+    return gained, lost, 1.0 if flips == 0 else float(binomtest(gained, flips, 0.5).pvalue)
+
+
+def report(pairs: pd.DataFrame) -> list[str]:
+    n = len(pairs)
+    gained, lost, p = mcnemar(pairs)
+    lines = [
+        f"before: {wilson(int(pairs.success_a.astype(bool).sum()), n)}",
+        f"after:  {wilson(int(pairs.success_b.astype(bool).sum()), n)}",
+        f"success flipped on {gained + lost} draws: {gained} gained, {lost} lost (exact McNemar p = {p:.3g})",
+        "",
+        "outcomes, before (rows) against after (columns):",
+        pd.crosstab(pairs.outcome_a, pairs.outcome_b).to_string(),
+    ]
+    changed = pairs[pairs.outcome_a != pairs.outcome_b]
+    lines += ["", f"draws whose outcome changed: {len(changed)}"]
+    lines += [
+        f"  {row.draws} {row.sample} ({row.point}): {row.outcome_a} -> {row.outcome_b}" for row in changed.itertuples()
+    ]
+    return lines
+
+
+def _load(directory: Path) -> pd.DataFrame:
+    path = directory / "study.parquet"
+    if not path.is_file():
+        raise ValueError(f"{path}: no such file; run `harmony study ... --out {directory}` first")
+    table = pd.read_parquet(path)
+    if (table["draws"] == REPORT_ONLY).any():
+        raise ValueError(
+            f"{path}: draws {REPORT_ONLY!r} are run to report, never to choose between variants; compare on a "
+            "development set (dev, dev2, ...)"
+        )
+    return table
+
+
+def main(argv: list[str]) -> int:
+    if len(argv) != 2:
+        print(__doc__.strip().splitlines()[2].strip(), file=sys.stderr)
+        return 2
+    try:
+        before, after = (_load(Path(a)) for a in argv)
+    except ValueError as error:
+        print(error, file=sys.stderr)
+        return 2
+    pairs = paired(before, after)
+    if pairs.empty:
+        print(f"{argv[0]} and {argv[1]}: no draw run on both sides", file=sys.stderr)
+        return 2
+    print("\n".join(report(pairs)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
