@@ -7,6 +7,8 @@ import importlib.util
 import pandas as pd
 from conftest import ROOT
 
+from harmony_cli.study.table import IMPOSSIBLE
+
 spec = importlib.util.spec_from_file_location("compare_studies", ROOT / "tools" / "compare_studies.py")
 assert spec is not None and spec.loader is not None
 compare = importlib.util.module_from_spec(spec)
@@ -37,6 +39,13 @@ def test_only_draws_run_on_both_sides_are_paired(tmp_path, capsys):
     after = _study(tmp_path / "b", ["dropped"] * 2)
     assert compare.main([str(before), str(after)]) == 0
     assert "before: 2 of 2" in capsys.readouterr().out
+
+
+def test_a_draw_refused_as_impossible_on_either_side_counts_on_neither(tmp_path, capsys):
+    before = _study(tmp_path / "a", ["success", "success", IMPOSSIBLE])
+    after = _study(tmp_path / "b", ["success", IMPOSSIBLE, "dropped"])
+    assert compare.main([str(before), str(after)]) == 0
+    assert "before: 1 of 1" in capsys.readouterr().out
 
 
 def test_validation_draws_are_refused_in_one_line(tmp_path, capsys):

@@ -3,7 +3,8 @@
 
     python tools/compare_studies.py BEFORE_DIR AFTER_DIR
 
-Runs are paired by their draw (set, seed, sample) and grid point; only pairs with a result on both sides count.
+Runs are paired by their draw (set, seed, sample) and grid point; only pairs with a result on both sides count,
+and a draw refused as impossible on either side counts on neither (as in the study report's denominator).
 Printed: each side's successes of the paired draws with a Wilson 95 % interval, the table of outcomes before
 against after, every draw whose outcome changed, and the exact McNemar test on the draws whose success flipped
 (a two-sided binomial test of the flips one way against the other): a change whose gains and losses could be
@@ -21,6 +22,9 @@ from pathlib import Path
 import pandas as pd
 from scipy.stats import binomtest
 
+from harmony_cli.study.intervals import wilson
+from harmony_cli.study.table import IMPOSSIBLE, TABLE
+
 KEYS = ["draws", "seed", "sample", "point"]
 REPORT_ONLY = "validation"  # the set of draws that is run to report, never to choose
 
@@ -29,25 +33,21 @@ def paired(before: pd.DataFrame, after: pd.DataFrame) -> pd.DataFrame:
     """One row per draw and grid point run on both sides: KEYS, success_a/b and outcome_a/b."""
     columns = [*KEYS, "success", "outcome"]
     both = before[columns].merge(after[columns], on=KEYS, suffixes=("_a", "_b"))
-    return both.dropna(subset=["success_a", "success_b"]).sort_values(KEYS, ignore_index=True)
+    refused = (both.outcome_a == IMPOSSIBLE) | (both.outcome_b == IMPOSSIBLE)
+    both = both[~refused].dropna(subset=["success_a", "success_b"])
+    return both.astype({"success_a": bool, "success_b": bool}).sort_values(KEYS, ignore_index=True)
 
 
-def wilson(successes: int, n: int) -> str:
-    if n == 0:
-        return "no draws"
-    interval = binomtest(successes, n).proportion_ci(method="wilson")
-    low, high = _percent(interval.low), _percent(interval.high)
-    return f"{successes} of {n} ({_percent(successes / n)}, Wilson 95 % {low} - {high})"
-
-
-def _percent(share: float) -> str:
-    return f"{100 * share:.0f} %"  # the reports' style
+def rate(successes: int, n: int) -> str:
+    """`k of n (rate, Wilson 95 % a - b)`, in the study report's style."""
+    low, high = wilson(successes, n)
+    return f"{successes} of {n} ({100 * successes / n:.0f} %, Wilson 95 % {100 * low:.0f} % - {100 * high:.0f} %)"
 
 
 def mcnemar(pairs: pd.DataFrame) -> tuple[int, int, float]:
     """(draws gained, draws lost, the exact two-sided McNemar p-value; 1 without flips)."""
-    gained = int((~pairs.success_a.astype(bool) & pairs.success_b.astype(bool)).sum())
-    lost = int((pairs.success_a.astype(bool) & ~pairs.success_b.astype(bool)).sum())
+    gained = int((~pairs.success_a & pairs.success_b).sum())
+    lost = int((pairs.success_a & ~pairs.success_b).sum())
     flips = gained + lost
     return gained, lost, 1.0 if flips == 0 else float(binomtest(gained, flips, 0.5).pvalue)
 
@@ -56,8 +56,8 @@ def report(pairs: pd.DataFrame) -> list[str]:
     n = len(pairs)
     gained, lost, p = mcnemar(pairs)
     lines = [
-        f"before: {wilson(int(pairs.success_a.astype(bool).sum()), n)}",
-        f"after:  {wilson(int(pairs.success_b.astype(bool).sum()), n)}",
+        f"before: {rate(int(pairs.success_a.sum()), n)}",
+        f"after:  {rate(int(pairs.success_b.sum()), n)}",
         f"success flipped on {gained + lost} draws: {gained} gained, {lost} lost (exact McNemar p = {p:.3g})",
         "",
         "outcomes, before (rows) against after (columns):",
@@ -72,7 +72,7 @@ def report(pairs: pd.DataFrame) -> list[str]:
 
 
 def _load(directory: Path) -> pd.DataFrame:
-    path = directory / "study.parquet"
+    path = directory / TABLE
     if not path.is_file():
         raise ValueError(f"{path}: no such file; run `harmony study ... --out {directory}` first")
     table = pd.read_parquet(path)
