@@ -41,7 +41,7 @@ def _run(tmp_path, robot, reference_opens=0.0, command=None, pressed=False):
         measured = _hands(robot, q_cmd)
         row = {"t": i * DT, "phase": "carry", "holding": True, "planner_status": "stepped"}
         row |= {"box_on_robot_N": 30.0 if pressed and i >= OPENS_AT else 0.0}
-        for h, hand in enumerate(timeline.HANDS):
+        for h, hand in enumerate(robot.hand_names):
             row |= {f"{hand}_force_ref_N": 20.0, f"{hand}_contact_N": 20.0 if i < LOOSE_AT else 4.0}
             row |= {f"{hand}_ref_{a}": reference[h, k] for k, a in enumerate("xyz")}
             row |= {f"{hand}_meas_{a}": measured[h, k] for k, a in enumerate("xyz")}
@@ -86,6 +86,16 @@ def test_the_first_layer_whose_grip_width_opened_before_the_pads_let_go_is_named
 def test_a_grip_that_keeps_its_squeeze_reports_no_loosening(tmp_path, eva):
     run = _run(tmp_path, eva)
     steps = pd.read_csv(run / "steps.csv")
-    steps[[f"{h}_contact_N" for h in timeline.HANDS]] = 20.0
+    steps[[f"{h}_contact_N" for h in eva.hand_names]] = 20.0
     steps.to_csv(run / "steps.csv", index=False)
     assert timeline.diagnose(run) is None
+
+
+def test_a_run_without_a_force_loop_gets_one_line_naming_the_missing_column_and_exit_2(tmp_path, eva, capsys):
+    run = _run(tmp_path, eva)
+    steps = pd.read_csv(run / "steps.csv").drop(columns=[f"{eva.hand_names[0]}_force_ref_N"])
+    steps.to_csv(run / "steps.csv", index=False)
+    assert timeline.main([str(run)]) == 2
+    message = capsys.readouterr().err.strip()
+    assert "\n" not in message and message.startswith(str(run))
+    assert f"{eva.hand_names[0]}_force_ref_N" in message

@@ -25,9 +25,8 @@ import numpy as np
 import pandas as pd
 
 from harmony_cli.robot.model import Robot
-from harmony_cli.scenario import load_scenario, robot_of
+from harmony_cli.scenario import ScenarioError, load_scenario, robot_of
 
-HANDS = ("left", "right")
 LOOSE = 0.5  # a pad below this share of its squeeze reference: the grip lets go
 OPENED = 0.5e-3  # [m] a width that grew by more than this since the window's start opened
 
@@ -50,12 +49,16 @@ class Loosening:
     window: pd.DataFrame  # the steps before it (and a few after): time, widths [mm], forces, base command, status
 
 
+class NotAGripRun(ValueError):
+    """A run directory this tool cannot read: the message names what is missing."""
+
+
 def widths(steps: pd.DataFrame, robot: Robot) -> pd.DataFrame:
     """Per step: the grip width [m] as referenced, as commanded (forward kinematics of cmd_q) and as measured."""
 
     def apart(kind: str) -> np.ndarray:
-        left, right = (steps[[f"{h}_{kind}_{a}" for a in "xyz"]].to_numpy() for h in HANDS)
-        return np.linalg.norm(right - left, axis=1)
+        first, second = (steps[[f"{h}_{kind}_{a}" for a in "xyz"]].to_numpy() for h in robot.hand_names)
+        return np.linalg.norm(second - first, axis=1)
 
     commanded = steps[[f"cmd_q_{name}" for name in robot.joint_names]].to_numpy()
     hands = [np.array([p.ravel() for p, _ in robot.hand_poses_numeric(q)]) for q in commanded]
@@ -69,12 +72,12 @@ def widths(steps: pd.DataFrame, robot: Robot) -> pd.DataFrame:
     )
 
 
-def first_loosening(steps: pd.DataFrame) -> int | None:
+def first_loosening(steps: pd.DataFrame, hands: tuple[str, ...]) -> int | None:
     """The index of the first step with the box held at which a pad's contact force is below LOOSE of its squeeze
     reference (where that is positive); None if there is none."""
     held = steps.holding.astype(bool)
     loose = np.zeros(len(steps), dtype=bool)
-    for h in HANDS:
+    for h in hands:
         reference = steps[f"{h}_force_ref_N"].fillna(0.0)
         loose |= (held & (reference > 0.0) & (steps[f"{h}_contact_N"] < LOOSE * reference)).to_numpy()
     return int(steps.index[np.argmax(loose)]) if loose.any() else None
@@ -96,18 +99,25 @@ def diagnose(run: Path, window: float = 0.3) -> Loosening | None:
     """The run's first loosening and which layer's width opened first over `window` [s] before it (None: the grip
     held in every held phase)."""
     steps = pd.read_csv(run / "steps.csv", low_memory=False)
-    at = first_loosening(steps)
+    robot = robot_of(load_scenario(run / "scenario.resolved.yaml", runnable=False), run)
+    hands = robot.hand_names
+    needed = ["t", "phase", "planner_status", "holding", "box_on_robot_N"]
+    needed += [f"{h}_{c}" for h in hands for c in ("force_ref_N", "contact_N", "ref_x", "meas_x")]
+    needed += [f"cmd_q_{name}" for name in robot.joint_names]
+    missing = [c for c in needed if c not in steps]
+    if len(hands) != 2 or missing:
+        raise NotAGripRun(f"{len(hands)} hands" if len(hands) != 2 else f"steps.csv has no column {missing[0]}")
+    at = first_loosening(steps, hands)
     if at is None:
         return None
     t = float(steps.t[at])
     rows = steps[(steps.t >= t - window - 1e-9) & (steps.t <= t + 0.1 + 1e-9)]
-    scenario = load_scenario(run / "scenario.resolved.yaml", runnable=False)
-    width = widths(rows, robot_of(scenario, run))
+    width = widths(rows, robot)
     before = rows.t <= t + 1e-9
     opened = first_opened(width[before], rows.loc[before, "box_on_robot_N"].fillna(0.0) > 0.0)
     grew = width[before].iloc[-1] - width[before].iloc[0]
     base = [c for c in ("cmd_qd_base_x", "cmd_qd_base_y", "cmd_qd_base_yaw") if c in rows]
-    shown = rows[["t", "phase", "planner_status", *[f"{h}_contact_N" for h in HANDS], *base, "box_on_robot_N"]]
+    shown = rows[["t", "phase", "planner_status", *[f"{h}_contact_N" for h in hands], *base, "box_on_robot_N"]]
     table = pd.concat([shown, 1e3 * width.add_suffix("_width_mm")], axis=1)
     return Loosening(t, str(steps.phase[at]), opened, grew, table)
 
@@ -117,10 +127,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("run", type=Path, help="a run directory (steps.csv, scenario.resolved.yaml)")
     parser.add_argument("--window", type=float, default=0.3, help="[s] how far back the widths are compared")
     args = parser.parse_args(argv)
+    if args.window <= 0.0:
+        print(f"--window: {args.window:g}: must be a positive number of seconds", file=sys.stderr)
+        return 2
     if not (args.run / "steps.csv").is_file():
         print(f"{args.run}: no steps.csv: not a run directory", file=sys.stderr)
         return 2
-    found = diagnose(args.run, args.window)
+    try:
+        found = diagnose(args.run, args.window)
+    except NotAGripRun as error:
+        print(f"{args.run}: not a run of two hands holding a box with the force loop on: {error}", file=sys.stderr)
+        return 2
+    except ScenarioError as error:  # already one line naming the file, the field and the choices
+        print(error, file=sys.stderr)
+        return 2
     if found is None:
         print(f"{args.run}: the grip held in every phase with the box held")
         return 0
