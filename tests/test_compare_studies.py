@@ -15,11 +15,12 @@ compare = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(compare)
 
 
-def _study(directory, outcomes: list[str], draws: str = "dev"):
+def _study(directory, outcomes: list[str], draws: str = "dev", points: tuple[str, ...] = ("base",)):
     directory.mkdir()
     rows = [
-        {"draws": draws, "seed": 7, "sample": i, "point": "base", "success": o == "success", "outcome": o}
+        {"draws": draws, "seed": 7, "sample": i, "point": point, "success": o == "success", "outcome": o}
         for i, o in enumerate(outcomes)
+        for point in points
     ]
     pd.DataFrame(rows).to_parquet(directory / "study.parquet")
     return directory
@@ -39,6 +40,23 @@ def test_only_draws_run_on_both_sides_are_paired(tmp_path, capsys):
     after = _study(tmp_path / "b", ["dropped"] * 2)
     assert compare.main([str(before), str(after)]) == 0
     assert "before: 2 of 2" in capsys.readouterr().out
+
+
+def test_two_studies_of_one_grid_point_each_pair_by_draw_whatever_their_points_are_named(tmp_path, capsys):
+    before = _study(tmp_path / "a", ["success", "success", "dropped"])
+    after = _study(tmp_path / "b", ["success", "collision", "dropped"], points=("world.box.friction-0.8000001",))
+    assert compare.main([str(before), str(after)]) == 0
+    out = capsys.readouterr().out
+    assert "paired by draw: base (before) against world.box.friction-0.8000001 (after)" in out
+    assert "before: 2 of 3" in out and "after:  1 of 3" in out and "  dev 1 (base): success -> collision" in out
+
+
+def test_studies_of_several_grid_points_pair_only_the_same_points(tmp_path, capsys):
+    before = _study(tmp_path / "a", ["success", "dropped"], points=("x", "y"))
+    after = _study(tmp_path / "b", ["dropped", "dropped"], points=("y", "z"))
+    assert compare.main([str(before), str(after)]) == 0
+    out = capsys.readouterr().out
+    assert "before: 1 of 2" in out and "paired by draw" not in out
 
 
 def test_a_draw_refused_as_impossible_on_either_side_counts_on_neither(tmp_path, capsys):

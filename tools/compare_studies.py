@@ -3,12 +3,17 @@
 
     python tools/compare_studies.py BEFORE_DIR AFTER_DIR
 
-Runs are paired by their draw (set, seed, sample) and grid point; only pairs with a result on both sides count,
-and a draw refused as impossible on either side counts on neither (as in the study report's denominator).
+Runs are paired by their draw (set, seed, sample) and grid point, or by their draw alone where each side ran one
+grid point (the same study run again with one setting changed, `--grid field=value`); only pairs with a result on
+both sides count, and a draw refused as impossible on either side counts on neither (as in the study report's
+denominator).
 Printed: each side's successes of the paired draws with a Wilson 95 % interval, the table of outcomes before
 against after, every draw whose outcome changed, and the exact McNemar test on the draws whose success flipped
 (a two-sided binomial test of the flips one way against the other): a change whose gains and losses could be
-the same coin is not an improvement, however many draws it gains on the ones it was argued from.
+the same coin is not an improvement, however many draws it gains on the ones it was argued from. Contact-rich
+carries are chaotic: some draws flip under a change that should do nothing. The base run again with a negligible
+perturbation (e.g. `--grid world.box.friction=0.8000001`, the box's friction changed by a part in ten million) and
+compared with the base says how many flips a change that does nothing makes.
 
 A change is chosen on development draws; validation draws are run to report, never to choose between variants,
 so studies of a `validation` set are refused (exit 2).
@@ -30,9 +35,11 @@ REPORT_ONLY = "validation"  # the set of draws that is run to report, never to c
 
 
 def paired(before: pd.DataFrame, after: pd.DataFrame) -> pd.DataFrame:
-    """One row per draw and grid point run on both sides: KEYS, success_a/b and outcome_a/b."""
-    columns = [*KEYS, "success", "outcome"]
-    both = before[columns].merge(after[columns], on=KEYS, suffixes=("_a", "_b"))
+    """One row per draw and grid point run on both sides (per draw where each side ran one grid point: `point` is
+    the before side's): KEYS, success_a/b and outcome_a/b."""
+    keys = KEYS[:-1] if before.point.nunique() == 1 and after.point.nunique() == 1 else KEYS
+    outcomes = ["success", "outcome"]
+    both = before[[*KEYS, *outcomes]].merge(after[[*keys, *outcomes]], on=keys, suffixes=("_a", "_b"))
     refused = (both.outcome_a == IMPOSSIBLE) | (both.outcome_b == IMPOSSIBLE)
     both = both[~refused].dropna(subset=["success_a", "success_b"])
     return both.astype({"success_a": bool, "success_b": bool}).sort_values(KEYS, ignore_index=True)
@@ -97,6 +104,9 @@ def main(argv: list[str]) -> int:
     if pairs.empty:
         print(f"{argv[0]} and {argv[1]}: no draw run on both sides", file=sys.stderr)
         return 2
+    points = before.point.unique(), after.point.unique()
+    if len(points[0]) == 1 and len(points[1]) == 1 and points[0][0] != points[1][0]:
+        print(f"one grid point each side, paired by draw: {points[0][0]} (before) against {points[1][0]} (after)")
     print("\n".join(report(pairs)))
     return 0
 
