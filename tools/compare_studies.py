@@ -34,10 +34,15 @@ KEYS = ["draws", "seed", "sample", "point"]
 REPORT_ONLY = "validation"  # the set of draws that is run to report, never to choose
 
 
+def one_point_each(before: pd.DataFrame, after: pd.DataFrame) -> bool:
+    """Whether each side ran a single grid point (its runs then pair by draw, whatever the points are named)."""
+    return before.point.nunique() == 1 and after.point.nunique() == 1
+
+
 def paired(before: pd.DataFrame, after: pd.DataFrame) -> pd.DataFrame:
     """One row per draw and grid point run on both sides (per draw where each side ran one grid point: `point` is
     the before side's): KEYS, success_a/b and outcome_a/b."""
-    keys = KEYS[:-1] if before.point.nunique() == 1 and after.point.nunique() == 1 else KEYS
+    keys = KEYS[:-1] if one_point_each(before, after) else KEYS
     outcomes = ["success", "outcome"]
     both = before[[*KEYS, *outcomes]].merge(after[[*keys, *outcomes]], on=keys, suffixes=("_a", "_b"))
     refused = (both.outcome_a == IMPOSSIBLE) | (both.outcome_b == IMPOSSIBLE)
@@ -104,9 +109,9 @@ def main(argv: list[str]) -> int:
     if pairs.empty:
         print(f"{argv[0]} and {argv[1]}: no draw run on both sides", file=sys.stderr)
         return 2
-    points = before.point.unique(), after.point.unique()
-    if len(points[0]) == 1 and len(points[1]) == 1 and points[0][0] != points[1][0]:
-        print(f"one grid point each side, paired by draw: {points[0][0]} (before) against {points[1][0]} (after)")
+    named = before.point.iloc[0], after.point.iloc[0]
+    if one_point_each(before, after) and named[0] != named[1]:
+        print(f"one grid point each side, paired by draw: {named[0]} (before) against {named[1]} (after)")
     print("\n".join(report(pairs)))
     return 0
 
